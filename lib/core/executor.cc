@@ -1,0 +1,91 @@
+#include "core/executor.h"
+
+#include <algorithm>
+#include <atomic>
+#include <exception>
+#include <memory>
+
+#include "core/error.h"
+
+namespace g6d {
+
+ThreadPool::ThreadPool(int num_threads) {
+  if (num_threads < 1) G6D_THROW("ThreadPool: num_threads must be >= 1 (got " << num_threads << ")");
+  workers_.reserve(static_cast<size_t>(num_threads - 1));
+  for (int i = 0; i + 1 < num_threads; ++i) workers_.emplace_back([this] { WorkerLoop(); });
+}
+
+ThreadPool::~ThreadPool() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopping_ = true;
+  }
+  task_available_.notify_all();
+  for (std::thread& worker : workers_) worker.join();
+}
+
+void ThreadPool::WorkerLoop() {
+  for (;;) {
+    std::function<void()> task;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      task_available_.wait(lock, [this] { return stopping_ || !tasks_.empty(); });
+      if (tasks_.empty()) return;  // stopping and drained
+      task = std::move(tasks_.front());
+      tasks_.pop_front();
+    }
+    task();
+  }
+}
+
+namespace {
+// Shared by the caller and the helper tasks of one ParallelFor call. Items are claimed
+// through an atomic counter; helpers that start after every item is claimed do nothing,
+// so `fn` (owned by the caller) is only touched while the caller is still waiting.
+struct ForState {
+  int n = 0;
+  const std::function<void(int)>* fn = nullptr;
+  std::atomic<int> next{0};
+  std::mutex mutex;
+  std::condition_variable all_done;
+  int done = 0;
+  std::exception_ptr error;
+
+  void RunItems() {
+    for (int i = next.fetch_add(1); i < n; i = next.fetch_add(1)) {
+      std::exception_ptr item_error;
+      try {
+        (*fn)(i);
+      } catch (...) {
+        item_error = std::current_exception();
+      }
+      std::lock_guard<std::mutex> lock(mutex);
+      if (item_error && !error) error = item_error;
+      if (++done == n) all_done.notify_all();
+    }
+  }
+};
+}  // namespace
+
+void ThreadPool::ParallelFor(int n, const std::function<void(int)>& fn) {
+  if (n <= 0) return;
+  if (workers_.empty() || n == 1) {
+    for (int i = 0; i < n; ++i) fn(i);
+    return;
+  }
+  auto state = std::make_shared<ForState>();
+  state->n = n;
+  state->fn = &fn;
+  const int helpers = std::min(n - 1, static_cast<int>(workers_.size()));
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (int h = 0; h < helpers; ++h) tasks_.emplace_back([state] { state->RunItems(); });
+  }
+  task_available_.notify_all();
+  state->RunItems();
+  std::unique_lock<std::mutex> lock(state->mutex);
+  state->all_done.wait(lock, [&] { return state->done == n; });
+  if (state->error) std::rethrow_exception(state->error);
+}
+
+}  // namespace g6d

@@ -1,0 +1,61 @@
+#pragma once
+/// @file executor.h
+/// Fan-out of independent work items. Library code never starts threads: the caller
+/// passes an Executor (like Ceres' Context) and every stage runs its per-hypothesis work
+/// through ParallelFor. Work items must write only to their own outputs, so the result
+/// is the same for any number of threads.
+
+#include <condition_variable>
+#include <deque>
+#include <functional>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace g6d {
+
+/// Runs independent work items.
+class Executor {
+ public:
+  virtual ~Executor() = default;
+  /// How many items may run at once (>= 1).
+  virtual int NumThreads() const = 0;
+  /// Calls fn(i) for every i in [0, n) and returns when all calls have returned.
+  /// The calling thread takes part, so nested calls from inside fn cannot deadlock.
+  /// The first exception thrown by fn is rethrown here after all items finished.
+  virtual void ParallelFor(int n, const std::function<void(int)>& fn) = 0;
+};
+
+/// Runs everything on the calling thread, in index order.
+class InlineExecutor final : public Executor {
+ public:
+  int NumThreads() const override { return 1; }
+  void ParallelFor(int n, const std::function<void(int)>& fn) override {
+    for (int i = 0; i < n; ++i) fn(i);
+  }
+};
+
+/// A fixed pool: `num_threads - 1` worker threads plus the thread that calls ParallelFor.
+/// Owned by applications (tools, service, tests), never created inside lib/ algorithms.
+class ThreadPool final : public Executor {
+ public:
+  /// num_threads >= 1 is the total parallelism including the calling thread.
+  explicit ThreadPool(int num_threads);
+  ~ThreadPool() override;
+  ThreadPool(const ThreadPool&) = delete;
+  ThreadPool& operator=(const ThreadPool&) = delete;
+
+  int NumThreads() const override { return static_cast<int>(workers_.size()) + 1; }
+  void ParallelFor(int n, const std::function<void(int)>& fn) override;
+
+ private:
+  void WorkerLoop();
+
+  std::mutex mutex_;
+  std::condition_variable task_available_;
+  std::deque<std::function<void()>> tasks_;
+  bool stopping_ = false;
+  std::vector<std::thread> workers_;
+};
+
+}  // namespace g6d

@@ -1,0 +1,36 @@
+#pragma once
+/// @file cache.h
+/// Template cache files: one self-contained file per object.
+///
+/// Layout: a fixed 64-byte header (magic "G6DCACHE", format version, header checksum,
+/// uncompressed and compressed body sizes, FNV-1a 64 checksum of the compressed body),
+/// then a zstd frame (with its own content checksum) holding the body: object id, mesh
+/// hash, all build options, camera, diameter, box, symmetries, online mesh, templates.
+/// Every count read from a file is bounded before anything is allocated.
+
+#include <cstdint>
+#include <string>
+
+#include "templates/template_bank.h"
+
+namespace g6d {
+
+/// Current cache format version; files of any other version are refused.
+inline constexpr uint32_t kCacheFormatVersion = 1;
+
+/// Writes `bank` to `path` (atomically: temp file + rename). Throws g6d::Error on I/O errors.
+void WriteTemplateCache(const TemplateBank& bank, const std::string& path, int zstd_level = 9);
+
+/// Reads a cache. Throws g6d::Error saying which problem it found: missing file,
+/// not a cache (bad magic), wrong version, truncated, checksum mismatch (corrupted),
+/// or a field out of range. Never returns a partially filled bank.
+TemplateBank ReadTemplateCache(const std::string& path);
+
+/// Like ReadTemplateCache, and also refuses a stale cache: throws when the hash of the
+/// mesh file at `mesh_path` differs from the one stored in the cache.
+TemplateBank ReadTemplateCacheChecked(const std::string& path, const std::string& mesh_path);
+
+/// Reads a cache from memory (for fuzzing and tests); same checks as ReadTemplateCache.
+TemplateBank ParseTemplateCache(const std::string& bytes, const std::string& name);
+
+}  // namespace g6d

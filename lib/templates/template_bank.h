@@ -1,0 +1,81 @@
+#pragma once
+/// @file template_bank.h
+/// The per-object template bank B (paper eq. 3): for each template j its pose T_j,
+/// mask M_j, crop affine A_j, and keypoints with ORB descriptors d_ji and object-frame
+/// 3D points X_ji; plus the decimated mesh used for online rendering.
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "core/camera.h"
+#include "core/executor.h"
+#include "mesh/mesh.h"
+#include "templates/crop.h"
+#include "templates/features.h"
+#include "templates/views.h"
+
+namespace g6d {
+
+/// Everything that determines a bank's contents; stored in the cache header.
+struct TemplateBuildOptions {
+  ViewSamplingOptions views;
+  CropOptions crop;
+  OrbOptions orb;
+  int render_size_px = 512;      ///< side of the square template render, pixels
+  double render_focal_px = 600;  ///< focal length of the template camera, pixels
+  int online_mesh_faces = 4000;  ///< face budget of the decimated online mesh
+  /// Keypoints whose surface is seen at a grazing angle beyond this are dropped, degrees.
+  double max_view_angle_deg = 80.0;
+
+  std::string Check() const;
+};
+
+/// One template j.
+struct Template {
+  Eigen::Isometry3d cam_from_object = Eigen::Isometry3d::Identity();  ///< T_j^r
+  /// Crop affine A_j: template image px (OpenCV) = scale * crop px + offset.
+  double crop_scale = 1.0;
+  Eigen::Vector2d crop_offset = Eigen::Vector2d::Zero();
+  cv::Mat mask;                          ///< CV_8U S x S normalized-crop mask, 0/255
+  std::vector<Eigen::Vector2f> keypoints;  ///< v_ji, template image px (OpenCV convention)
+  std::vector<std::array<uint8_t, 32>> descriptors;  ///< d_ji
+  std::vector<Eigen::Vector3f> points;   ///< X_ji, object frame, metres
+};
+
+/// A complete bank for one object. Plain data plus a few derived lookups.
+struct TemplateBank {
+  std::string object_id;        ///< e.g. "obj_000005"
+  uint64_t mesh_hash = 0;       ///< FNV-1a 64 of the source mesh file bytes
+  std::string mesh_path;        ///< source mesh path at build time (informational)
+  Units mesh_units = Units::kMetres;
+  TemplateBuildOptions options;
+  Camera template_camera;       ///< intrinsics and size of every template render
+  double diameter_m = 0.0;
+  Eigen::AlignedBox3d bounding_box;  ///< metres, object frame
+  /// Symmetry transforms (object_from_object), identity excluded; empty = asymmetric.
+  std::vector<Eigen::Isometry3d> symmetries;
+  Mesh online_mesh;             ///< decimated geometry for online rasterization
+  std::vector<Template> templates;
+
+  /// Total number of keypoints over all templates.
+  size_t NumKeypoints() const;
+};
+
+/// Progress callback: (templates done, templates total).
+using ProgressCallback = std::function<void(int, int)>;
+
+/// Renders and processes all template views of `mesh` (paper Sec. III-B). Views fan out
+/// over `executor`; each worker thread uses its own OSMesa context. The result is the
+/// same for any number of threads. Throws g6d::Error on bad options.
+TemplateBank BuildTemplateBank(const Mesh& mesh, const std::string& object_id,
+                               const TemplateBuildOptions& options, Executor* executor,
+                               const ProgressCallback& progress = nullptr);
+
+}  // namespace g6d

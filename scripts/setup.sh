@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# Installs every Debian package g6d needs (idempotent), then configures and builds.
+#   bash scripts/setup.sh            # packages + Release build in ./build
+#   G6D_SKIP_APT=1 bash scripts/setup.sh   # build only
+#   BUILD_DIR=build-x CMAKE_ARGS="-DG6D_SANITIZE=thread" bash scripts/setup.sh
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+PACKAGES=(
+  build-essential cmake pkg-config ccache git
+  liblcm-dev liblcm-bin libglib2.0-dev liblcm-java default-jdk-headless
+  libeigen3-dev libopencv-dev libopen3d-dev libassimp-dev libosmesa6-dev
+  libceres-dev libzstd-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+  libspdlog-dev libcli11-dev nlohmann-json3-dev libyaml-cpp-dev
+  python3
+)
+
+if [[ "${G6D_SKIP_APT:-0}" != "1" ]]; then
+  missing=()
+  for p in "${PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  SUDO=""
+  if [[ $(id -u) -ne 0 ]]; then SUDO="sudo"; fi
+  echo "[setup] apt-get update"
+  $SUDO apt-get update -qq
+  if ((${#missing[@]})); then
+    echo "[setup] installing: ${missing[*]}"
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+  else
+    echo "[setup] all ${#PACKAGES[@]} packages already installed"
+  fi
+fi
+
+BUILD_DIR="${BUILD_DIR:-build}"
+JOBS="${JOBS:-2}"
+echo "[setup] configuring ${BUILD_DIR}"
+cmake -S . -B "${BUILD_DIR}" -DCMAKE_BUILD_TYPE="${BUILD_TYPE:-Release}" ${CMAKE_ARGS:-} >/dev/null
+echo "[setup] building with -j${JOBS}"
+cmake --build "${BUILD_DIR}" -j"${JOBS}"
+echo "[setup] done: binaries in ${BUILD_DIR}/"

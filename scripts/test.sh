@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# Sets up (packages + build) and runs every test with ctest.
+#   bash scripts/test.sh [extra ctest args]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh
+BUILD_DIR="${BUILD_DIR:-build}"
+cd "${BUILD_DIR}"
+ctest --output-on-failure -j"${JOBS:-2}" "$@"
