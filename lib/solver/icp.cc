@@ -1,0 +1,134 @@
+#include "solver/icp.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <sstream>
+
+#include <Eigen/SVD>
+#include <open3d/geometry/KDTreeFlann.h>
+
+#include "core/error.h"
+
+namespace g6d {
+
+struct PointCloudIndex::Impl {
+  Eigen::MatrixXd data;  // 3 x N, referenced by the tree
+  open3d::geometry::KDTreeFlann tree;
+};
+
+PointCloudIndex::PointCloudIndex(std::vector<Eigen::Vector3d> points)
+    : points_(std::move(points)), impl_(std::make_unique<Impl>()) {
+  impl_->data.resize(3, static_cast<Eigen::Index>(points_.size()));
+  for (size_t i = 0; i < points_.size(); ++i) impl_->data.col(static_cast<Eigen::Index>(i)) = points_[i];
+  if (!points_.empty()) impl_->tree.SetMatrixData(impl_->data);
+}
+
+PointCloudIndex::~PointCloudIndex() = default;
+
+int PointCloudIndex::Nearest(const Eigen::Vector3d& query, double* squared_distance) const {
+  if (points_.empty()) return -1;
+  std::vector<int> indices(1);
+  std::vector<double> distances(1);
+  if (impl_->tree.SearchKNN(query, 1, indices, distances) < 1) return -1;
+  *squared_distance = distances[0];
+  return indices[0];
+}
+
+std::string IcpOptions::Check() const {
+  std::ostringstream out;
+  if (!(trim_fraction > 0.0 && trim_fraction <= 1.0)) out << "IcpOptions.trim_fraction must be in (0, 1] (got " << trim_fraction << ")";
+  else if (!(kappa_d >= 0.0)) out << "IcpOptions.kappa_d must be >= 0 (got " << kappa_d << ")";
+  else if (!(r0_m > 0.0)) out << "IcpOptions.r0_m must be > 0 (got " << r0_m << ")";
+  else if (max_iterations < 1) out << "IcpOptions.max_iterations must be >= 1 (got " << max_iterations << ")";
+  else if (min_correspondences < 3) out << "IcpOptions.min_correspondences must be >= 3 (got " << min_correspondences << ")";
+  return out.str();
+}
+
+Eigen::Isometry3d AlignRigid(const std::vector<Eigen::Vector3d>& source,
+                             const std::vector<Eigen::Vector3d>& target) {
+  G6D_CHECK(source.size() == target.size() && source.size() >= 3);
+  Eigen::Vector3d source_mean = Eigen::Vector3d::Zero(), target_mean = Eigen::Vector3d::Zero();
+  for (size_t i = 0; i < source.size(); ++i) {
+    source_mean += source[i];
+    target_mean += target[i];
+  }
+  source_mean /= static_cast<double>(source.size());
+  target_mean /= static_cast<double>(target.size());
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  for (size_t i = 0; i < source.size(); ++i) {
+    covariance += (target[i] - target_mean) * (source[i] - source_mean).transpose();
+  }
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(covariance, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
+  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0.0) d(2, 2) = -1.0;
+  Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
+  transform.linear() = svd.matrixU() * d * svd.matrixV().transpose();
+  transform.translation() = target_mean - transform.linear() * source_mean;
+  return transform;
+}
+
+void RefineByTrimmedIcp(const IcpOptions& options, const std::vector<Eigen::Vector3d>& source_in_object,
+                        const PointCloudIndex& target, double diameter_m,
+                        Eigen::Isometry3d* cam_from_object, IcpReport* report) {
+  *report = IcpReport();
+  const std::string bad = options.Check();
+  if (!bad.empty()) {
+    report->message = bad;
+    return;
+  }
+  if (source_in_object.size() < static_cast<size_t>(options.min_correspondences) ||
+      target.points().size() < static_cast<size_t>(options.min_correspondences)) {
+    report->message = "too few points (source " + std::to_string(source_in_object.size()) +
+                      ", target " + std::to_string(target.points().size()) + ")";
+    return;
+  }
+  const double r_max = std::max(options.r0_m, options.kappa_d * diameter_m);
+  const double r_max_squared = r_max * r_max;
+  const size_t n = source_in_object.size();
+  Eigen::Isometry3d pose = *cam_from_object;
+  std::vector<Eigen::Vector3d> moved(n);
+  std::vector<int> nearest(n);
+  std::vector<double> squared(n);
+  std::vector<size_t> order(n);
+  std::vector<Eigen::Vector3d> kept_source, kept_target;
+  for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
+    for (size_t i = 0; i < n; ++i) {
+      moved[i] = pose * source_in_object[i];
+      nearest[i] = target.Nearest(moved[i], &squared[i]);
+    }
+    std::iota(order.begin(), order.end(), size_t{0});
+    // Trimming: the closest ρ fraction, then the r_max cutoff. Stable on ties so the
+    // result does not depend on anything but the data.
+    const size_t keep = static_cast<size_t>(std::ceil(options.trim_fraction * n));
+    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return squared[a] < squared[b]; });
+    kept_source.clear();
+    kept_target.clear();
+    double sum_squared = 0.0;
+    for (size_t k = 0; k < keep; ++k) {
+      const size_t i = order[k];
+      if (nearest[i] < 0 || squared[i] >= r_max_squared) break;
+      kept_source.push_back(moved[i]);
+      kept_target.push_back(target.points()[static_cast<size_t>(nearest[i])]);
+      sum_squared += squared[i];
+    }
+    report->iterations = iteration + 1;
+    report->correspondences = static_cast<int>(kept_source.size());
+    if (kept_source.size() < static_cast<size_t>(options.min_correspondences)) {
+      report->message = "too few correspondences within r_max (" + std::to_string(kept_source.size()) + ")";
+      return;
+    }
+    report->rmse_m = std::sqrt(sum_squared / kept_source.size());
+    const Eigen::Isometry3d update = AlignRigid(kept_source, kept_target);
+    pose = update * pose;
+    // Largest displacement of a kept point caused by this update.
+    double step = 0.0;
+    for (const Eigen::Vector3d& p : kept_source) step = std::max(step, (update * p - p).norm());
+    if (step < options.min_step_m) break;
+  }
+  *cam_from_object = pose;
+  report->success = true;
+  report->message = "ok";
+}
+
+}  // namespace g6d

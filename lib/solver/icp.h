@@ -1,0 +1,70 @@
+#pragma once
+/// @file icp.h
+/// Trimmed point-to-point ICP (paper Sec. III-D): rendered visible model points are
+/// aligned to the observed points inside the mask; per iteration only the closest
+/// fraction ρ of correspondences with residuals below r_max = max(r_0, κ_d · diameter)
+/// enters the rigid (Kabsch) update. The KD-tree over the observed points is Open3D's;
+/// its headers stay inside icp.cc.
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+namespace g6d {
+
+/// Nearest-neighbour index over a fixed 3D point set (Open3D KDTreeFlann inside).
+/// Built once per instance; const queries are thread-safe.
+class PointCloudIndex {
+ public:
+  explicit PointCloudIndex(std::vector<Eigen::Vector3d> points);
+  ~PointCloudIndex();
+  PointCloudIndex(const PointCloudIndex&) = delete;
+  PointCloudIndex& operator=(const PointCloudIndex&) = delete;
+
+  const std::vector<Eigen::Vector3d>& points() const { return points_; }
+  /// Index of the nearest point to `query` and its squared distance; -1 when empty.
+  int Nearest(const Eigen::Vector3d& query, double* squared_distance) const;
+
+ private:
+  struct Impl;
+  std::vector<Eigen::Vector3d> points_;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Options of RefineByTrimmedIcp(). Defaults are the paper's.
+struct IcpOptions {
+  double trim_fraction = 0.70;   ///< ρ: fraction of closest correspondences kept
+  double kappa_d = 0.35;         ///< κ_d: r_max relative to the object diameter
+  double r0_m = 0.01;            ///< r_0: minimum residual cutoff, metres
+  int max_iterations = 30;       ///< iterations at most
+  double min_step_m = 1e-5;      ///< stop when the update moves points less than this, metres
+  int min_correspondences = 12;  ///< fewer kept correspondences = failure
+
+  std::string Check() const;
+};
+
+/// What ICP did.
+struct IcpReport {
+  bool success = false;
+  std::string message = "not run";
+  int iterations = 0;
+  int correspondences = 0;  ///< kept in the last iteration
+  double rmse_m = 0.0;      ///< over the kept correspondences of the last iteration
+};
+
+/// Refines *cam_from_object so that `source_in_object` (object frame, metres) matches the
+/// observed points indexed by `target` (camera frame, metres). On failure the pose is
+/// left unchanged.
+void RefineByTrimmedIcp(const IcpOptions& options, const std::vector<Eigen::Vector3d>& source_in_object,
+                        const PointCloudIndex& target, double diameter_m,
+                        Eigen::Isometry3d* cam_from_object, IcpReport* report);
+
+/// Least-squares rigid transform (no scale) mapping `source[i]` onto `target[i]`
+/// (Kabsch / Umeyama). Requires at least 3 non-collinear pairs.
+Eigen::Isometry3d AlignRigid(const std::vector<Eigen::Vector3d>& source,
+                             const std::vector<Eigen::Vector3d>& target);
+
+}  // namespace g6d

@@ -1,0 +1,105 @@
+#include "solver/match.h"
+
+#include <algorithm>
+#include <cstring>
+#include <numeric>
+#include <sstream>
+
+#include "core/camera.h"
+
+namespace g6d {
+
+std::string MatchOptions::Check() const {
+  std::ostringstream out;
+  if (hamming_threshold < 1 || hamming_threshold > 256) out << "MatchOptions.hamming_threshold must be in 1..256 (got " << hamming_threshold << ")";
+  else if (max_sets < 1) out << "MatchOptions.max_sets must be >= 1 (got " << max_sets << ")";
+  else if (min_correspondences < 4) out << "MatchOptions.min_correspondences must be >= 4 (got " << min_correspondences << ")";
+  return out.str();
+}
+
+namespace {
+struct Words {
+  uint64_t w[4];
+};
+inline Words Load(const std::array<uint8_t, 32>& d) {
+  Words words;
+  std::memcpy(words.w, d.data(), 32);
+  return words;
+}
+inline int Distance(const Words& a, const Words& b) {
+  return __builtin_popcountll(a.w[0] ^ b.w[0]) + __builtin_popcountll(a.w[1] ^ b.w[1]) +
+         __builtin_popcountll(a.w[2] ^ b.w[2]) + __builtin_popcountll(a.w[3] ^ b.w[3]);
+}
+}  // namespace
+
+int HammingDistance(const std::array<uint8_t, 32>& a, const std::array<uint8_t, 32>& b) {
+  return Distance(Load(a), Load(b));
+}
+
+void MatchTemplates(const MatchOptions& options, const std::vector<Feature>& query,
+                    const TemplateBank& bank, Executor* executor,
+                    std::vector<CorrespondenceSet>* sets, MatchReport* report) {
+  *report = MatchReport();
+  sets->clear();
+  const std::string bad = options.Check();
+  if (!bad.empty()) {
+    report->message = bad;
+    return;
+  }
+  report->query_features = static_cast<int>(query.size());
+  if (query.size() < static_cast<size_t>(options.min_correspondences)) {
+    report->message = "too few query features (" + std::to_string(query.size()) + ")";
+    return;
+  }
+  std::vector<Words> query_words(query.size());
+  for (size_t i = 0; i < query.size(); ++i) query_words[i] = Load(query[i].descriptor);
+
+  const int num_templates = static_cast<int>(bank.templates.size());
+  std::vector<CorrespondenceSet> all(static_cast<size_t>(num_templates));
+  executor->ParallelFor(num_templates, [&](int j) {
+    const Template& tmpl = bank.templates[static_cast<size_t>(j)];
+    std::vector<Words> template_words(tmpl.descriptors.size());
+    for (size_t k = 0; k < tmpl.descriptors.size(); ++k) template_words[k] = Load(tmpl.descriptors[k]);
+    CorrespondenceSet& set = all[static_cast<size_t>(j)];
+    set.template_index = j;
+    for (size_t i = 0; i < query_words.size(); ++i) {
+      int best = 257, best_index = -1;
+      for (size_t k = 0; k < template_words.size(); ++k) {
+        const int d = Distance(query_words[i], template_words[k]);
+        if (d < best) {
+          best = d;
+          best_index = static_cast<int>(k);
+        }
+      }
+      if (best_index >= 0 && best < options.hamming_threshold) {  // C_j, eq. (correspondences)
+        set.quality += 1.0 - static_cast<double>(best) / options.hamming_threshold;  // Q_j, eq. (4)
+        set.image_points.emplace_back(query[i].xy.x() + kOpenCvToImage, query[i].xy.y() + kOpenCvToImage);
+        set.object_points.push_back(tmpl.points[static_cast<size_t>(best_index)].cast<double>());
+      }
+    }
+  });
+  std::vector<int> order;
+  for (int j = 0; j < num_templates; ++j) {
+    if (all[static_cast<size_t>(j)].image_points.size() >= static_cast<size_t>(options.min_correspondences)) {
+      order.push_back(j);
+    }
+  }
+  report->templates_with_matches = static_cast<int>(order.size());
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return all[static_cast<size_t>(a)].quality > all[static_cast<size_t>(b)].quality;
+  });
+  if (order.size() > static_cast<size_t>(options.max_sets)) order.resize(static_cast<size_t>(options.max_sets));
+  sets->reserve(order.size());
+  for (int j : order) sets->push_back(std::move(all[static_cast<size_t>(j)]));
+  report->sets_kept = static_cast<int>(sets->size());
+  if (sets->empty()) {
+    report->message = "no template has " + std::to_string(options.min_correspondences) +
+                      " matches with Hamming distance < " + std::to_string(options.hamming_threshold);
+    return;
+  }
+  report->best_quality = sets->front().quality;
+  report->success = true;
+  report->message = "ok";
+}
+
+}  // namespace g6d

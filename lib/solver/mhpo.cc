@@ -1,0 +1,321 @@
+#include "solver/mhpo.h"
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <sstream>
+
+#include <ceres/ceres.h>
+#include <ceres/cubic_interpolation.h>
+#include <ceres/rotation.h>
+#include <opencv2/imgproc.hpp>
+
+#include "core/error.h"
+#include "render/raster.h"
+
+namespace g6d {
+
+std::string MhpoOptions::Check() const {
+  std::ostringstream out;
+  if (!(lambda_d >= 0.0)) out << "MhpoOptions.lambda_d must be >= 0 (got " << lambda_d << ")";
+  else if (!(huber_beta > 0.0)) out << "MhpoOptions.huber_beta must be > 0 (got " << huber_beta << ")";
+  else if (!(silhouette_robust_px > 0.0)) out << "MhpoOptions.silhouette_robust_px must be > 0 (got " << silhouette_robust_px << ")";
+  else if (max_rounds < 0) out << "MhpoOptions.max_rounds must be >= 0 (got " << max_rounds << ")";
+  else if (lm_iterations < 1) out << "MhpoOptions.lm_iterations must be >= 1 (got " << lm_iterations << ")";
+  else if (max_contour_points < 1 || max_depth_points < 0) out << "MhpoOptions.max_contour_points must be >= 1 and max_depth_points >= 0";
+  else if (patience < 1) out << "MhpoOptions.patience must be >= 1 (got " << patience << ")";
+  return out.str();
+}
+
+namespace {
+
+using Grid = ceres::Grid2D<float, 1>;
+using Interpolator = ceres::BiCubicInterpolator<Grid>;
+
+// Bicubic views of the signed distance and the observed depth of a target.
+struct TargetInterpolators {
+  explicit TargetInterpolators(const MhpoTarget& target)
+      : sdf_grid(target.signed_distance.ptr<float>(), 0, target.signed_distance.rows, 0,
+                 target.signed_distance.cols),
+        depth_grid(target.grid->depth.ptr<float>(), 0, target.grid->depth.rows, 0,
+                   target.grid->depth.cols),
+        sdf(sdf_grid),
+        depth(depth_grid) {}
+  Grid sdf_grid;
+  Grid depth_grid;
+  Interpolator sdf;
+  Interpolator depth;
+};
+
+// p' = R(phi) p + rho, the left increment of the current camera-frame point.
+template <typename T>
+void MovePoint(const Eigen::Vector3d& point, const T* delta, T moved[3]) {
+  const T p[3] = {T(point.x()), T(point.y()), T(point.z())};
+  ceres::AngleAxisRotatePoint(delta + 3, p, moved);
+  moved[0] += delta[0];
+  moved[1] += delta[1];
+  moved[2] += delta[2];
+}
+
+// Continuous image coordinates under the grid camera, minus 0.5 so that integer values
+// fall on pixel centres, the sample positions of ceres::Grid2D.
+template <typename T>
+void ProjectToGrid(const Camera& camera, const T moved[3], T* row, T* col) {
+  const T z = moved[2] > T(1e-6) ? moved[2] : T(1e-6);
+  *col = T(camera.fx) * moved[0] / z + T(camera.cx) - T(0.5);
+  *row = T(camera.fy) * moved[1] / z + T(camera.cy) - T(0.5);
+}
+
+// (a) silhouette: signed distance of the projected contour point to the observed boundary.
+struct SilhouetteCost {
+  SilhouetteCost(const Camera& camera, const Interpolator* sdf, const Eigen::Vector3d& point, double weight)
+      : camera(camera), sdf(sdf), point(point), weight(weight) {}
+  template <typename T>
+  bool operator()(const T* delta, T* residual) const {
+    T moved[3], row, col, value;
+    MovePoint(point, delta, moved);
+    ProjectToGrid(camera, moved, &row, &col);
+    sdf->Evaluate(row, col, &value);
+    residual[0] = T(weight) * value;
+    return true;
+  }
+  Camera camera;
+  const Interpolator* sdf;
+  Eigen::Vector3d point;
+  double weight;
+};
+
+// (b) depth: (rendered − observed depth) / z_M at the projected surface point.
+struct DepthCost {
+  DepthCost(const Camera& camera, const Interpolator* depth, const Eigen::Vector3d& point, double z_m, double weight)
+      : camera(camera), depth(depth), point(point), z_m(z_m), weight(weight) {}
+  template <typename T>
+  bool operator()(const T* delta, T* residual) const {
+    T moved[3], row, col, observed;
+    MovePoint(point, delta, moved);
+    ProjectToGrid(camera, moved, &row, &col);
+    depth->Evaluate(row, col, &observed);
+    residual[0] = T(weight) * (moved[2] - observed) / T(z_m);
+    return true;
+  }
+  Camera camera;
+  const Interpolator* depth;
+  Eigen::Vector3d point;
+  double z_m;
+  double weight;
+};
+
+template <typename Cost>
+double EvaluateCost(const Cost& cost, const double delta[6], double jacobian[6]) {
+  ceres::AutoDiffCostFunction<Cost, 1, 6> function(new Cost(cost));
+  double residual = 0.0;
+  const double* parameters[1] = {delta};
+  double* jacobians[1] = {jacobian};
+  function.Evaluate(parameters, &residual, jacobian ? jacobians : nullptr);
+  return residual;
+}
+
+// True when the observed depth in the 4x4 bicubic support around (u, v) is all valid.
+bool DepthSupportValid(const cv::Mat& depth, int u, int v) {
+  for (int dv = -1; dv <= 2; ++dv) {
+    for (int du = -1; du <= 2; ++du) {
+      const int uu = u + du, vv = v + dv;
+      if (uu < 0 || vv < 0 || uu >= depth.cols || vv >= depth.rows) return false;
+      if (!(depth.at<float>(vv, uu) > 0.0f)) return false;
+    }
+  }
+  return true;
+}
+
+struct HypothesisState {
+  Eigen::Isometry3d current;
+  Eigen::Isometry3d best;
+  PoseScore best_score;
+  int rounds_without_gain = 0;
+  bool active = true;
+  MhpoHypothesisReport report;
+  RasterImage raster;
+};
+
+// One round for one hypothesis: rasterize, collect residuals, LM, re-score.
+void RunRound(const MhpoOptions& options, const ScoreOptions& score_options, const MhpoTarget& target,
+              const TargetInterpolators& interpolators, const Mesh& mesh, int round, HypothesisState* state) {
+  const EvaluationGrid& grid = *target.grid;
+  const Camera& camera = grid.camera;
+  RasterOptions raster_options;
+  raster_options.want_face_id = false;
+  Rasterize(mesh, camera, state->current, raster_options, &state->raster);
+  const cv::Mat& rendered = state->raster.depth;
+
+  std::vector<Eigen::Vector3d> contour, surface;
+  for (int v = 0; v < rendered.rows; ++v) {
+    for (int u = 0; u < rendered.cols; ++u) {
+      const float z = rendered.at<float>(v, u);
+      if (!(z > 0.0f)) continue;
+      const Eigen::Vector3d point = camera.Backproject(PixelCentre(u, v), z);
+      const bool edge = u == 0 || v == 0 || u + 1 == rendered.cols || v + 1 == rendered.rows ||
+                        !(rendered.at<float>(v, u - 1) > 0.0f) || !(rendered.at<float>(v, u + 1) > 0.0f) ||
+                        !(rendered.at<float>(v - 1, u) > 0.0f) || !(rendered.at<float>(v + 1, u) > 0.0f);
+      if (edge) contour.push_back(point);
+      if (grid.mask.at<uint8_t>(v, u) && DepthSupportValid(grid.depth, u, v)) surface.push_back(point);
+    }
+  }
+  if (contour.size() < 6) {
+    state->active = false;  // the rendering left the grid: nothing to align
+    return;
+  }
+  auto subsample = [](std::vector<Eigen::Vector3d>* points, int max_count) {
+    if (static_cast<int>(points->size()) <= max_count) return;
+    std::vector<Eigen::Vector3d> kept;
+    const double step = static_cast<double>(points->size()) / max_count;
+    for (int i = 0; i < max_count; ++i) kept.push_back((*points)[static_cast<size_t>(i * step)]);
+    points->swap(kept);
+  };
+  subsample(&contour, options.max_contour_points);
+  subsample(&surface, options.max_depth_points);
+
+  // Each term is a mean, as in eqs. (10) and (13): weights 1/N inside the squares.
+  double delta[6] = {0, 0, 0, 0, 0, 0};
+  ceres::Problem problem;
+  const double grid_side = std::max(camera.width, camera.height);
+  const double silhouette_weight = 1.0 / (grid_side * std::sqrt(static_cast<double>(contour.size())));
+  for (const Eigen::Vector3d& point : contour) {
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<SilhouetteCost, 1, 6>(
+            new SilhouetteCost(camera, &interpolators.sdf, point, silhouette_weight)),
+        new ceres::HuberLoss(silhouette_weight * options.silhouette_robust_px), delta);
+  }
+  if (!surface.empty() && target.z_m > 0.0 && options.lambda_d > 0.0) {
+    const double depth_weight = std::sqrt(options.lambda_d / static_cast<double>(surface.size()));
+    for (const Eigen::Vector3d& point : surface) {
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<DepthCost, 1, 6>(
+              new DepthCost(camera, &interpolators.depth, point, target.z_m, depth_weight)),
+          new ceres::HuberLoss(depth_weight * options.huber_beta), delta);
+    }
+  }
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::DENSE_QR;
+  solver_options.max_num_iterations = options.lm_iterations;
+  solver_options.num_threads = 1;
+  solver_options.logging_type = ceres::SILENT;
+  solver_options.minimizer_progress_to_stdout = false;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options, &problem, &summary);
+
+  Eigen::Matrix3d rotation;
+  ceres::AngleAxisToRotationMatrix(delta + 3, ceres::ColumnMajorAdapter3x3(rotation.data()));
+  Eigen::Isometry3d next = Eigen::Isometry3d::Identity();
+  next.linear() = rotation * state->current.linear();
+  next.translation() = rotation * state->current.translation() + Eigen::Vector3d(delta[0], delta[1], delta[2]);
+  state->current = next;
+  state->report.rounds = round + 1;
+  const PoseScore score = ScorePose(grid, mesh, next, target.z_m, score_options, &state->raster);
+  if (score.s < state->best_score.s) {  // eq. (17): keep the best state ever seen
+    state->best = next;
+    state->best_score = score;
+    state->report.best_round = round + 1;
+    state->rounds_without_gain = 0;
+  } else if (++state->rounds_without_gain >= options.patience) {
+    state->active = false;
+  }
+}
+
+}  // namespace
+
+MhpoTarget MakeMhpoTarget(const EvaluationGrid& grid, double z_m) {
+  MhpoTarget target;
+  target.grid = &grid;
+  target.z_m = z_m;
+  cv::Mat inside_distance, outside_distance;
+  const cv::Mat inside = grid.mask > 0;
+  const cv::Mat outside = grid.mask == 0;
+  // distanceTransform measures to the nearest zero pixel: for pixels inside the mask,
+  // the nearest background pixel, and vice versa. The boundary lies half a pixel away.
+  cv::distanceTransform(inside, inside_distance, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
+  cv::distanceTransform(outside, outside_distance, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
+  target.signed_distance.create(grid.mask.size(), CV_32F);
+  for (int v = 0; v < grid.mask.rows; ++v) {
+    for (int u = 0; u < grid.mask.cols; ++u) {
+      target.signed_distance.at<float>(v, u) = grid.mask.at<uint8_t>(v, u)
+                                                   ? -(inside_distance.at<float>(v, u) - 0.5f)
+                                                   : outside_distance.at<float>(v, u) - 0.5f;
+    }
+  }
+  return target;
+}
+
+double EvaluateSilhouetteResidual(const MhpoTarget& target, const Eigen::Vector3d& point_in_cam,
+                                  const double delta[6], double jacobian[6]) {
+  const TargetInterpolators interpolators(target);
+  return EvaluateCost(SilhouetteCost(target.grid->camera, &interpolators.sdf, point_in_cam, 1.0), delta, jacobian);
+}
+
+double EvaluateDepthResidual(const MhpoTarget& target, const Eigen::Vector3d& point_in_cam,
+                             const double delta[6], double jacobian[6]) {
+  const TargetInterpolators interpolators(target);
+  return EvaluateCost(DepthCost(target.grid->camera, &interpolators.depth, point_in_cam, target.z_m, 1.0),
+                      delta, jacobian);
+}
+
+void RefineByMhpo(const MhpoOptions& options, const ScoreOptions& score_options,
+                  const MhpoTarget& target, const Mesh& mesh,
+                  const std::vector<Eigen::Isometry3d>& hypotheses, Executor* executor,
+                  Eigen::Isometry3d* best_cam_from_object, MhpoReport* report) {
+  *report = MhpoReport();
+  std::string bad = options.Check();
+  if (bad.empty()) bad = score_options.Check();
+  if (!bad.empty()) {
+    report->message = bad;
+    return;
+  }
+  if (hypotheses.empty()) {
+    report->message = "no hypotheses to refine";
+    return;
+  }
+  G6D_CHECK(target.grid != nullptr);
+  const TargetInterpolators interpolators(target);
+  const int n = static_cast<int>(hypotheses.size());
+  std::vector<HypothesisState> states(static_cast<size_t>(n));
+  executor->ParallelFor(n, [&](int k) {
+    HypothesisState& state = states[static_cast<size_t>(k)];
+    state.current = state.best = hypotheses[static_cast<size_t>(k)];
+    state.best_score = ScorePose(*target.grid, mesh, state.current, target.z_m, score_options, &state.raster);
+    state.report.initial_s = state.best_score.s;
+  });
+  auto global_best = [&]() {
+    int best = 0;
+    for (int k = 1; k < n; ++k) {
+      if (states[static_cast<size_t>(k)].best_score.s < states[static_cast<size_t>(best)].best_score.s) best = k;
+    }
+    return best;
+  };
+  const bool early_stop_enabled = options.early_stop_score > 0.0;
+  for (int round = 0; round < options.max_rounds; ++round) {
+    if (early_stop_enabled && states[static_cast<size_t>(global_best())].best_score.s < options.early_stop_score) {
+      report->early_stopped = true;
+      break;
+    }
+    std::vector<int> active;
+    for (int k = 0; k < n; ++k) {
+      if (states[static_cast<size_t>(k)].active) active.push_back(k);
+    }
+    if (active.empty()) break;
+    executor->ParallelFor(static_cast<int>(active.size()), [&](int i) {
+      RunRound(options, score_options, target, interpolators, mesh, round,
+               &states[static_cast<size_t>(active[static_cast<size_t>(i)])]);
+    });
+  }
+  const int best = global_best();
+  *best_cam_from_object = states[static_cast<size_t>(best)].best;
+  report->best_hypothesis = best;
+  report->best_score = states[static_cast<size_t>(best)].best_score;
+  for (HypothesisState& state : states) {
+    state.report.best_s = state.best_score.s;
+    report->hypotheses.push_back(state.report);
+  }
+  report->success = true;
+  report->message = "ok";
+}
+
+}  // namespace g6d

@@ -1,0 +1,83 @@
+#include "solver/observation.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include <opencv2/imgproc.hpp>
+
+#include "core/error.h"
+
+namespace g6d {
+
+std::string GridOptions::Check() const {
+  std::ostringstream out;
+  if (!(margin >= 0.0 && margin <= 10.0)) out << "GridOptions.margin must be in [0, 10] (got " << margin << ")";
+  else if (max_side_px < 8 || max_side_px > 4096) out << "GridOptions.max_side_px must be in [8, 4096] (got " << max_side_px << ")";
+  return out.str();
+}
+
+double MeanMaskedDepth(const cv::Mat& mask, const cv::Mat& depth, int* valid_pixels) {
+  G6D_CHECK(mask.type() == CV_8U && depth.type() == CV_32F && mask.size() == depth.size());
+  double sum = 0.0;
+  int count = 0;
+  for (int v = 0; v < mask.rows; ++v) {
+    const uint8_t* m = mask.ptr<uint8_t>(v);
+    const float* d = depth.ptr<float>(v);
+    for (int u = 0; u < mask.cols; ++u) {
+      if (m[u] && d[u] > 0.0f && std::isfinite(d[u])) {
+        sum += d[u];
+        ++count;
+      }
+    }
+  }
+  if (valid_pixels) *valid_pixels = count;
+  return count > 0 ? sum / count : 0.0;
+}
+
+EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, const cv::Mat& depth,
+                                  const GridOptions& options) {
+  G6D_CHECK(mask.type() == CV_8U && depth.type() == CV_32F);
+  G6D_CHECK(mask.cols == camera.width && mask.rows == camera.height && depth.size() == mask.size());
+  EvaluationGrid grid;
+  const cv::Rect box = cv::boundingRect(mask);
+  if (box.area() == 0) {
+    grid.camera = camera.Cropped(0, 0, 1, 1);
+    grid.mask = cv::Mat::zeros(1, 1, CV_8U);
+    grid.depth = cv::Mat::zeros(1, 1, CV_32F);
+    return grid;
+  }
+  const int margin = static_cast<int>(std::ceil(options.margin * std::max(box.width, box.height)));
+  const int x0 = std::max(0, box.x - margin);
+  const int y0 = std::max(0, box.y - margin);
+  const int x1 = std::min(camera.width, box.x + box.width + margin);
+  const int y1 = std::min(camera.height, box.y + box.height + margin);
+  const int roi_w = x1 - x0;
+  const int roi_h = y1 - y0;
+  const double scale = std::min(1.0, static_cast<double>(options.max_side_px) / std::max(roi_w, roi_h));
+  Camera roi_camera = camera.Cropped(x0, y0, roi_w, roi_h);
+  // Scale without rounding surprises: fix the grid size first, then the exact scale
+  // factors per axis are what Camera::Scaled uses (uniform scale).
+  grid.camera = roi_camera.Scaled(scale);
+  grid.camera.width = std::max(1, grid.camera.width);
+  grid.camera.height = std::max(1, grid.camera.height);
+  grid.mask.create(grid.camera.height, grid.camera.width, CV_8U);
+  grid.depth.create(grid.camera.height, grid.camera.width, CV_32F);
+  for (int v = 0; v < grid.camera.height; ++v) {
+    const int sv = std::min(y1 - 1, y0 + static_cast<int>((v + 0.5) / scale));
+    const uint8_t* m = mask.ptr<uint8_t>(sv);
+    const float* d = depth.ptr<float>(sv);
+    uint8_t* gm = grid.mask.ptr<uint8_t>(v);
+    float* gd = grid.depth.ptr<float>(v);
+    for (int u = 0; u < grid.camera.width; ++u) {
+      const int su = std::min(x1 - 1, x0 + static_cast<int>((u + 0.5) / scale));
+      gm[u] = m[su] ? 255 : 0;
+      const float z = d[su];
+      gd[u] = (z > 0.0f && std::isfinite(z)) ? z : 0.0f;
+      grid.mask_pixels += gm[u] ? 1 : 0;
+    }
+  }
+  return grid;
+}
+
+}  // namespace g6d

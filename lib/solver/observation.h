@@ -1,0 +1,50 @@
+#pragma once
+/// @file observation.h
+/// The observed data of one instance, prepared once and shared (read-only) by every
+/// hypothesis: the instance mask, depth, the region of interest used for scoring, and
+/// z_M, the mean observed depth inside the mask (paper eq. 9).
+
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "core/camera.h"
+
+namespace g6d {
+
+/// One RGB-D frame as the solver sees it.
+struct Frame {
+  Camera camera;  ///< intrinsics and image size
+  cv::Mat rgb;    ///< CV_8UC3, RGB order
+  cv::Mat depth;  ///< CV_32F, metres along the optical axis; 0 (or NaN) = no measurement
+};
+
+/// A mask and depth resampled onto a (cropped, scaled) region of interest of the image.
+/// Grid pixel (u, v) samples the source pixel containing the grid pixel's centre.
+struct EvaluationGrid {
+  Camera camera;  ///< camera of the grid (Camera::Cropped then Scaled)
+  cv::Mat mask;   ///< CV_8U 0/255 observed mask on the grid
+  cv::Mat depth;  ///< CV_32F metres on the grid, 0 = invalid
+  int mask_pixels = 0;
+};
+
+/// Options of MakeEvaluationGrid().
+struct GridOptions {
+  /// Margin added on each side of the mask box, as a fraction of the box's longer side.
+  double margin = 0.5;
+  /// The grid's longer side in pixels (the ROI is downscaled, never upscaled, to it).
+  int max_side_px = 128;
+
+  std::string Check() const;
+};
+
+/// Resamples `mask` (CV_8U, non-zero = object) and `depth` (CV_32F metres) of the full
+/// image onto the ROI around the mask box, clipped to the image.
+EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, const cv::Mat& depth,
+                                  const GridOptions& options);
+
+/// z_M of eq. (9): mean observed depth over mask pixels with valid depth, metres;
+/// 0 when there is none. *valid_pixels (optional) receives their count.
+double MeanMaskedDepth(const cv::Mat& mask, const cv::Mat& depth, int* valid_pixels = nullptr);
+
+}  // namespace g6d

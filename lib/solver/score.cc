@@ -1,0 +1,60 @@
+#include "solver/score.h"
+
+#include <cmath>
+#include <sstream>
+
+#include "core/error.h"
+
+namespace g6d {
+
+std::string ScoreOptions::Check() const {
+  std::ostringstream out;
+  if (!(omega_c >= 0.0 && omega_c <= 1.0)) out << "ScoreOptions.omega_c must be in [0, 1] (got " << omega_c << ")";
+  else if (!(lambda_s >= 0.0 && std::isfinite(lambda_s))) out << "ScoreOptions.lambda_s must be finite and >= 0 (got " << lambda_s << ")";
+  return out.str();
+}
+
+PoseScore ScoreRendering(const EvaluationGrid& grid, const RasterImage& rendered, double z_m,
+                         const ScoreOptions& options) {
+  G6D_CHECK(rendered.depth.size() == grid.mask.size());
+  PoseScore score;
+  int observed = 0, intersection = 0, union_count = 0, overlap = 0;
+  double residual_sum = 0.0;
+  for (int v = 0; v < grid.mask.rows; ++v) {
+    const uint8_t* m = grid.mask.ptr<uint8_t>(v);
+    const float* d = grid.depth.ptr<float>(v);
+    const float* r = rendered.depth.ptr<float>(v);
+    for (int u = 0; u < grid.mask.cols; ++u) {
+      const bool in_observed = m[u] != 0;
+      const bool in_rendered = r[u] > 0.0f;
+      observed += in_observed;
+      score.rendered_pixels += in_rendered;
+      intersection += in_observed && in_rendered;
+      union_count += in_observed || in_rendered;
+      if (in_observed && in_rendered && d[u] > 0.0f) {  // w_k(u) of eq. (10)
+        ++overlap;
+        residual_sum += std::abs(static_cast<double>(r[u]) - d[u]);
+      }
+    }
+  }
+  score.overlap_pixels = overlap;
+  score.coverage = observed > 0 ? static_cast<double>(intersection) / observed : 0.0;
+  score.iou = union_count > 0 ? static_cast<double>(intersection) / union_count : 0.0;
+  // eq. (12): normalized weighted mean absolute depth residual; ε avoids 0/0.
+  constexpr double kEpsilon = 1e-9;
+  score.depth_residual = z_m > 0.0 ? residual_sum / (z_m * overlap + kEpsilon) : 0.0;
+  score.e_obs = options.omega_c * (1.0 - score.coverage) + (1.0 - options.omega_c) * (1.0 - score.iou);
+  score.s = 1.0 - score.iou + options.lambda_s * score.depth_residual;
+  return score;
+}
+
+PoseScore ScorePose(const EvaluationGrid& grid, const Mesh& mesh,
+                    const Eigen::Isometry3d& cam_from_object, double z_m,
+                    const ScoreOptions& options, RasterImage* scratch) {
+  RasterOptions raster_options;
+  raster_options.want_face_id = false;
+  Rasterize(mesh, grid.camera, cam_from_object, raster_options, scratch);
+  return ScoreRendering(grid, *scratch, z_m, options);
+}
+
+}  // namespace g6d

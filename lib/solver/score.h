@@ -1,0 +1,46 @@
+#pragma once
+/// @file score.h
+/// Mask and depth consistency of a pose: coverage C and IoU J (eq. 6), observable error
+/// E_obs (eq. 7) and the physical consistency score S (eq. 12).
+
+#include <string>
+
+#include <Eigen/Geometry>
+
+#include "mesh/mesh.h"
+#include "render/raster.h"
+#include "solver/observation.h"
+
+namespace g6d {
+
+/// Weights of the scores.
+struct ScoreOptions {
+  double omega_c = 0.70;   ///< ω_C: weight of (1 − coverage) in E_obs (eq. 7)
+  double lambda_s = 10.0;  ///< λ_S: weight of the normalized depth residual in S (eq. 12)
+
+  std::string Check() const;
+};
+
+/// All consistency measures of one rendered pose against the observation.
+struct PoseScore {
+  double coverage = 0.0;        ///< C = |M̂ ∩ M| / |M|
+  double iou = 0.0;             ///< J = |M̂ ∩ M| / |M̂ ∪ M|
+  double depth_residual = 0.0;  ///< Σ w |D̂ − D| / (z_M Σ w), unitless (eq. 12's depth term)
+  double e_obs = 1.0;           ///< ω_C (1 − C) + (1 − ω_C)(1 − J)
+  double s = 2.0;               ///< 1 − J + λ_S · depth_residual; lower is better
+  int rendered_pixels = 0;      ///< |M̂| on the grid
+  int overlap_pixels = 0;       ///< Σ w: overlap with valid observed depth
+};
+
+/// Scores an already rendered image (on grid.camera) against the grid. `z_m` is z_M.
+/// With no depth overlap the depth residual is 0 when the masks are disjoint as well
+/// (S is then dominated by 1 − J = 1).
+PoseScore ScoreRendering(const EvaluationGrid& grid, const RasterImage& rendered, double z_m,
+                         const ScoreOptions& options);
+
+/// Rasterizes `mesh` at cam_from_object on the grid and scores it. `scratch` is reused.
+PoseScore ScorePose(const EvaluationGrid& grid, const Mesh& mesh,
+                    const Eigen::Isometry3d& cam_from_object, double z_m,
+                    const ScoreOptions& options, RasterImage* scratch);
+
+}  // namespace g6d
