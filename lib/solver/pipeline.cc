@@ -1,0 +1,265 @@
+#include "solver/pipeline.h"
+
+#include <algorithm>
+#include <cmath>
+#include <exception>
+#include <numeric>
+#include <sstream>
+
+#include <opencv2/imgproc.hpp>
+
+#include "core/error.h"
+#include "core/timer.h"
+#include "render/raster.h"
+#include "templates/crop.h"
+
+namespace g6d {
+
+std::string SolverOptions::Check() const {
+  std::string bad = query_orb.Check();
+  if (bad.empty()) bad = match.Check();
+  if (bad.empty()) bad = pnp.Check();
+  if (bad.empty()) bad = score.Check();
+  if (bad.empty()) bad = selection_grid.Check();
+  if (bad.empty()) bad = refine_grid.Check();
+  if (bad.empty()) bad = icp.Check();
+  if (bad.empty()) bad = mhpo.Check();
+  if (!bad.empty()) return bad;
+  std::ostringstream out;
+  if (num_hypotheses < 1) out << "SolverOptions.num_hypotheses must be >= 1 (got " << num_hypotheses << ")";
+  else if (max_observed_points < 10) out << "SolverOptions.max_observed_points must be >= 10 (got " << max_observed_points << ")";
+  else if (max_source_points < 10) out << "SolverOptions.max_source_points must be >= 10 (got " << max_source_points << ")";
+  else if (min_valid_depth_pixels < 3) out << "SolverOptions.min_valid_depth_pixels must be >= 3 (got " << min_valid_depth_pixels << ")";
+  else if (!(confidence_slope > 0.0)) out << "SolverOptions.confidence_slope must be > 0 (got " << confidence_slope << ")";
+  return out.str();
+}
+
+const char* TerminationName(Termination termination) {
+  switch (termination) {
+    case Termination::kNotRun: return "not_run";
+    case Termination::kConverged: return "converged";
+    case Termination::kEarlyStopped: return "early_stopped";
+    case Termination::kBadInput: return "bad_input";
+    case Termination::kNoHypothesis: return "no_hypothesis";
+  }
+  return "unknown";
+}
+
+double ConfidenceFromScore(const SolverOptions& options, double score) {
+  if (!std::isfinite(score)) return 0.0;
+  return 1.0 / (1.0 + std::exp(options.confidence_slope * (score - options.confidence_midpoint)));
+}
+
+namespace {
+
+// Returns an empty string when the inputs can be used, else what is wrong.
+std::string ValidateInputs(const Frame& frame, const Instance& instance, const TemplateBank& bank,
+                           const SolverOptions& options) {
+  std::ostringstream out;
+  const std::string bad_camera = frame.camera.Check();
+  const std::string bad_options = options.Check();
+  const cv::Size size(frame.camera.width, frame.camera.height);
+  if (!bad_options.empty()) out << "bad solver options: " << bad_options;
+  else if (!bad_camera.empty()) out << "bad camera intrinsics: " << bad_camera;
+  else if (frame.rgb.type() != CV_8UC3 || frame.rgb.size() != size)
+    out << "rgb must be CV_8UC3 of " << size.width << "x" << size.height << " (got type " << frame.rgb.type() << ", " << frame.rgb.cols << "x" << frame.rgb.rows << ")";
+  else if (frame.depth.type() != CV_32F || frame.depth.size() != size)
+    out << "depth must be CV_32F metres of " << size.width << "x" << size.height << " (got type " << frame.depth.type() << ", " << frame.depth.cols << "x" << frame.depth.rows << ")";
+  else if (instance.mask.type() != CV_8U || instance.mask.size() != size)
+    out << "mask must be CV_8U of " << size.width << "x" << size.height << " (got type " << instance.mask.type() << ", " << instance.mask.cols << "x" << instance.mask.rows << ")";
+  else if (instance.object_id != bank.object_id)
+    out << "the template bank is for object '" << bank.object_id << "', not '" << instance.object_id << "'";
+  else if (bank.templates.empty() || bank.online_mesh.faces.empty() || !(bank.diameter_m > 0.0))
+    out << "the template bank for '" << bank.object_id << "' is empty";
+  return out.str();
+}
+
+bool TouchesBorder(const cv::Rect& box, const cv::Size& size) {
+  return box.x == 0 || box.y == 0 || box.x + box.width == size.width || box.y + box.height == size.height;
+}
+
+// Visible model points of a rendering on `grid` at `cam_from_object`, in the object frame.
+std::vector<Eigen::Vector3d> VisibleModelPoints(const Mesh& mesh, const Camera& camera,
+                                                const Eigen::Isometry3d& cam_from_object,
+                                                int max_points, RasterImage* scratch) {
+  RasterOptions raster_options;
+  raster_options.want_face_id = false;
+  Rasterize(mesh, camera, cam_from_object, raster_options, scratch);
+  const int count = std::max(1, scratch->pixel_count);
+  const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(count) / max_points))));
+  const Eigen::Isometry3d object_from_cam = cam_from_object.inverse();
+  std::vector<Eigen::Vector3d> points;
+  for (int v = stride / 2; v < scratch->depth.rows; v += stride) {
+    const float* row = scratch->depth.ptr<float>(v);
+    for (int u = stride / 2; u < scratch->depth.cols; u += stride) {
+      if (row[u] > 0.0f) points.push_back(object_from_cam * camera.Backproject(PixelCentre(u, v), row[u]));
+    }
+  }
+  return points;
+}
+
+}  // namespace
+
+PoseResult EstimatePose(const Frame& frame, const Instance& instance, const TemplateBank& bank,
+                        const SolverOptions& options, Executor* executor) {
+  PoseResult result;
+  StageReport& stages = result.stages;
+  const Stopwatch total;
+  auto fail = [&](Termination termination, const std::string& message) {
+    result.success = false;
+    result.termination = termination;
+    result.message = message;
+    stages.total_ms = total.ElapsedMs();
+    return result;
+  };
+  try {
+    const std::string bad = ValidateInputs(frame, instance, bank, options);
+    if (!bad.empty()) return fail(Termination::kBadInput, bad);
+
+    // ---- prepare the observation
+    Stopwatch watch;
+    cv::Mat mask = instance.mask > 0;
+    const cv::Rect box = cv::boundingRect(mask);
+    if (box.area() == 0) return fail(Termination::kBadInput, "the instance mask is empty");
+    if (options.reject_border_masks && TouchesBorder(box, mask.size())) {
+      return fail(Termination::kBadInput, "the instance mask touches the image border (object truncated)");
+    }
+    cv::Mat depth = frame.depth.clone();
+    cv::patchNaNs(depth, 0.0);
+    int valid_depth = 0;
+    const double z_m = MeanMaskedDepth(mask, depth, &valid_depth);  // eq. (9)
+    if (valid_depth < options.min_valid_depth_pixels) {
+      return fail(Termination::kBadInput, "the mask has " + std::to_string(valid_depth) +
+                                              " pixels with valid depth (need " +
+                                              std::to_string(options.min_valid_depth_pixels) + ")");
+    }
+    // Observed cloud Y, deterministic image-space subsampling.
+    const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(valid_depth) / options.max_observed_points))));
+    std::vector<Eigen::Vector3d> observed;
+    for (int v = box.y + stride / 2; v < box.y + box.height; v += stride) {
+      for (int u = box.x + stride / 2; u < box.x + box.width; u += stride) {
+        const float z = depth.at<float>(v, u);
+        if (mask.at<uint8_t>(v, u) && z > 0.0f) observed.push_back(frame.camera.Backproject(PixelCentre(u, v), z));
+      }
+    }
+    const PointCloudIndex observed_index(std::move(observed));
+    const EvaluationGrid selection_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.selection_grid);
+    const EvaluationGrid refine_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.refine_grid);
+    stages.prepare_ms = watch.ElapsedMs();
+
+    // ---- stage 1: features and template matching
+    watch.Restart();
+    const NormalizedCrop crop = NormalizeCrop(frame.rgb, mask, bank.options.crop);
+    const std::vector<Feature> query = DetectOrb(crop, options.query_orb);
+    stages.query_features = static_cast<int>(query.size());
+    stages.features_ms = watch.ElapsedMs();
+    watch.Restart();
+    std::vector<CorrespondenceSet> sets;
+    MatchReport match_report;
+    MatchTemplates(options.match, query, bank, executor, &sets, &match_report);
+    stages.match_ms = watch.ElapsedMs();
+    stages.correspondence_sets = static_cast<int>(sets.size());
+    stages.best_quality = match_report.best_quality;
+    if (!match_report.success) return fail(Termination::kNoHypothesis, "matching: " + match_report.message);
+    {
+      // Template seed: the best template's rotation, translated onto the mask centre at z_M.
+      const Template& best = bank.templates[static_cast<size_t>(sets.front().template_index)];
+      const Eigen::Vector3d centre = bank.bounding_box.center();
+      const Eigen::Vector2d mask_centre(box.x + 0.5 * box.width, box.y + 0.5 * box.height);
+      stages.seed_pose.linear() = best.cam_from_object.linear();
+      stages.seed_pose.translation() =
+          frame.camera.Backproject(mask_centre, z_m) - best.cam_from_object.linear() * centre;
+    }
+
+    // ---- stage 2: MSAC-PnP per correspondence set
+    watch.Restart();
+    const double projected_size_px = std::max(box.width, box.height);
+    std::vector<PnpResult> pnp(sets.size());
+    executor->ParallelFor(static_cast<int>(sets.size()), [&](int i) {
+      EstimatePnp(options.pnp, sets[static_cast<size_t>(i)], frame.camera, projected_size_px,
+                  &pnp[static_cast<size_t>(i)]);
+    });
+    std::vector<Eigen::Isometry3d> hypotheses;
+    for (const PnpResult& p : pnp) {
+      if (p.success) hypotheses.push_back(p.cam_from_object);
+    }
+    stages.pnp_ms = watch.ElapsedMs();
+    stages.pnp_hypotheses = static_cast<int>(hypotheses.size());
+    if (hypotheses.empty()) return fail(Termination::kNoHypothesis, "MSAC-PnP found no valid pose in " + std::to_string(sets.size()) + " correspondence sets");
+    stages.pnp_pose = hypotheses.front();  // from the best-ranked template with a valid pose
+
+    // ---- stage 3: observable selection (eq. 7)
+    watch.Restart();
+    std::vector<PoseScore> observable(hypotheses.size());
+    executor->ParallelFor(static_cast<int>(hypotheses.size()), [&](int i) {
+      RasterImage scratch;
+      observable[static_cast<size_t>(i)] = ScorePose(selection_grid, bank.online_mesh, hypotheses[static_cast<size_t>(i)], z_m, options.score, &scratch);
+    });
+    std::vector<int> order(hypotheses.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+      return observable[static_cast<size_t>(a)].e_obs < observable[static_cast<size_t>(b)].e_obs;
+    });
+    if (order.size() > static_cast<size_t>(options.num_hypotheses)) order.resize(static_cast<size_t>(options.num_hypotheses));
+    std::vector<Eigen::Isometry3d> kept;
+    for (int i : order) kept.push_back(hypotheses[static_cast<size_t>(i)]);
+    stages.kept_hypotheses = static_cast<int>(kept.size());
+    stages.best_e_obs = observable[static_cast<size_t>(order.front())].e_obs;
+    stages.observable_pose = kept.front();
+    stages.observable_ms = watch.ElapsedMs();
+
+    // ---- stage 4: trimmed ICP on depth, every kept hypothesis independently
+    watch.Restart();
+    std::vector<PoseScore> icp_scores(kept.size());
+    std::vector<int> icp_ok(kept.size(), 0);
+    executor->ParallelFor(static_cast<int>(kept.size()), [&](int k) {
+      RasterImage scratch;
+      Eigen::Isometry3d& pose = kept[static_cast<size_t>(k)];
+      if (options.run_icp) {
+        const std::vector<Eigen::Vector3d> source =
+            VisibleModelPoints(bank.online_mesh, refine_grid.camera, pose, options.max_source_points, &scratch);
+        IcpReport icp_report;
+        RefineByTrimmedIcp(options.icp, source, observed_index, bank.diameter_m, &pose, &icp_report);
+        icp_ok[static_cast<size_t>(k)] = icp_report.success;
+      }
+      icp_scores[static_cast<size_t>(k)] = ScorePose(refine_grid, bank.online_mesh, pose, z_m, options.score, &scratch);
+    });
+    int best_after_icp = 0;
+    for (size_t k = 0; k < kept.size(); ++k) {
+      stages.icp_converged += icp_ok[k];
+      if (icp_scores[k].s < icp_scores[static_cast<size_t>(best_after_icp)].s) best_after_icp = static_cast<int>(k);
+    }
+    stages.best_s_after_icp = icp_scores[static_cast<size_t>(best_after_icp)].s;
+    stages.icp_pose = kept[static_cast<size_t>(best_after_icp)];
+    stages.icp_ms = watch.ElapsedMs();
+
+    // ---- stage 5: MHPO, best state over all hypotheses and rounds (T_A, S_A)
+    watch.Restart();
+    result.cam_from_object = stages.icp_pose;
+    result.details = icp_scores[static_cast<size_t>(best_after_icp)];
+    result.termination = Termination::kConverged;
+    if (options.run_mhpo) {
+      const MhpoTarget target = MakeMhpoTarget(refine_grid, z_m);
+      Eigen::Isometry3d best;
+      RefineByMhpo(options.mhpo, options.score, target, bank.online_mesh, kept, executor, &best, &stages.mhpo);
+      if (stages.mhpo.success && stages.mhpo.best_score.s <= result.details.s) {
+        result.cam_from_object = best;
+        result.details = stages.mhpo.best_score;
+      }
+      if (stages.mhpo.early_stopped) result.termination = Termination::kEarlyStopped;
+    }
+    stages.mhpo_ms = watch.ElapsedMs();
+    result.score = result.details.s;
+    result.confidence = ConfidenceFromScore(options, result.score);
+    result.success = true;
+    result.message = "ok";
+    stages.total_ms = total.ElapsedMs();
+    return result;
+  } catch (const std::exception& e) {
+    // Library code reports bad data through the result; an exception here is a bug or
+    // an unexpected input that a lower layer refused. It must not escape to the caller.
+    return fail(Termination::kBadInput, std::string("internal error: ") + e.what());
+  }
+}
+
+}  // namespace g6d

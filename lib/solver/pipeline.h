@@ -1,0 +1,121 @@
+#pragma once
+/// @file pipeline.h
+/// EstimatePose: the whole G6D online pipeline for one instance (paper Sec. III-C..E):
+/// match -> MSAC-PnP -> observable selection -> trimmed ICP -> MHPO, selected by S.
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "core/executor.h"
+#include "solver/icp.h"
+#include "solver/match.h"
+#include "solver/mhpo.h"
+#include "solver/observation.h"
+#include "solver/pnp.h"
+#include "solver/score.h"
+#include "templates/features.h"
+#include "templates/template_bank.h"
+
+namespace g6d {
+
+/// One instance to estimate: its object and its visible mask in the frame.
+struct Instance {
+  std::string object_id;  ///< must equal the bank's object id
+  cv::Mat mask;           ///< CV_8U, frame size, non-zero = visible object pixels
+};
+
+/// All options of EstimatePose. Defaults are the paper's where it gives them.
+struct SolverOptions {
+  OrbOptions query_orb = [] {
+    OrbOptions orb;
+    orb.max_features = 500;
+    return orb;
+  }();                          ///< ORB on the query crop (the crop options come from the bank)
+  MatchOptions match;           ///< τ_H = 64, N_P = 256
+  PnpOptions pnp;
+  int num_hypotheses = 18;      ///< N_H = K: hypotheses kept after observable selection
+  ScoreOptions score;           ///< ω_C = 0.70, λ_S = 10
+  GridOptions selection_grid = [] {
+    GridOptions grid;
+    grid.max_side_px = 96;
+    return grid;
+  }();                          ///< ROI grid for observable selection (eq. 7)
+  GridOptions refine_grid = [] {
+    GridOptions grid;
+    grid.max_side_px = 160;
+    return grid;
+  }();                          ///< ROI grid for ICP sources, MHPO and the final S
+  IcpOptions icp;               ///< ρ = 0.70, κ_d = 0.35
+  bool run_icp = true;          ///< stage 4 on/off (ablations)
+  int max_observed_points = 2500;  ///< observed cloud Y is subsampled to about this many points
+  int max_source_points = 600;     ///< rendered ICP source cloud size at most
+  MhpoOptions mhpo;             ///< λ_D = 0.1
+  bool run_mhpo = true;         ///< stage 5 on/off (ablations)
+  int min_valid_depth_pixels = 30;  ///< fewer valid depth pixels in the mask = bad input
+  bool reject_border_masks = true;  ///< a mask touching the image border is refused
+  /// Confidence = 1 / (1 + exp(confidence_slope * (S_A − confidence_midpoint))).
+  double confidence_slope = 25.0;
+  double confidence_midpoint = 0.25;
+
+  /// Empty when valid, else names the bad field.
+  std::string Check() const;
+};
+
+/// Why EstimatePose stopped.
+enum class Termination {
+  kNotRun,
+  kConverged,     ///< all stages ran; the best state is T_A
+  kEarlyStopped,  ///< MHPO stopped early: S_A fell below the threshold
+  kBadInput,      ///< the frame, mask or bank was unusable (see message)
+  kNoHypothesis,  ///< matching or PnP produced no valid pose
+};
+
+/// Human-readable name of a Termination.
+const char* TerminationName(Termination termination);
+
+/// Counts, best scores and times of each stage: the interpretable intermediate results.
+struct StageReport {
+  int query_features = 0;
+  int correspondence_sets = 0;     ///< after matching (≤ N_P)
+  int pnp_hypotheses = 0;          ///< valid MSAC-PnP poses
+  int kept_hypotheses = 0;         ///< after observable selection (≤ N_H)
+  int icp_converged = 0;
+  double best_quality = 0.0;       ///< best Q_j
+  double best_e_obs = 1.0;         ///< best E_obs among PnP poses
+  double best_s_after_icp = 2.0;   ///< best S after ICP
+  double prepare_ms = 0.0, features_ms = 0.0, match_ms = 0.0, pnp_ms = 0.0,
+         observable_ms = 0.0, icp_ms = 0.0, mhpo_ms = 0.0, total_ms = 0.0;
+  /// Best pose after each stage, for per-stage recall (seed, pnp, observable, icp, mhpo);
+  /// identity where a stage did not run.
+  Eigen::Isometry3d seed_pose = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d pnp_pose = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d observable_pose = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d icp_pose = Eigen::Isometry3d::Identity();
+  MhpoReport mhpo;
+};
+
+/// The estimate for one instance.
+struct PoseResult {
+  bool success = false;
+  std::string message = "not run";
+  Termination termination = Termination::kNotRun;
+  Eigen::Isometry3d cam_from_object = Eigen::Isometry3d::Identity();  ///< T_A
+  double score = 2.0;        ///< S_A (eq. 12), lower is better
+  double confidence = 0.0;   ///< in [0, 1], monotone decreasing in S_A
+  PoseScore details;         ///< C, J, depth residual of T_A
+  StageReport stages;
+};
+
+/// Confidence in [0, 1] for a score S_A (monotone decreasing).
+double ConfidenceFromScore(const SolverOptions& options, double score);
+
+/// Estimates cam_from_object for one instance. Never throws for bad data: bad input
+/// gives success = false with termination kBadInput and a message naming the problem.
+/// Per-hypothesis work fans out over `executor`; any thread count gives the same result.
+PoseResult EstimatePose(const Frame& frame, const Instance& instance, const TemplateBank& bank,
+                        const SolverOptions& options, Executor* executor);
+
+}  // namespace g6d
