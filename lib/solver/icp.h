@@ -39,8 +39,8 @@ struct IcpOptions {
   double trim_fraction = 0.70;   ///< ρ: fraction of closest correspondences kept
   double kappa_d = 0.35;         ///< κ_d: r_max relative to the object diameter
   double r0_m = 0.01;            ///< r_0: minimum residual cutoff, metres
-  int max_iterations = 30;       ///< iterations at most
-  double min_step_m = 1e-5;      ///< stop when the update moves points less than this, metres
+  int max_iterations = 60;       ///< iterations at most (point-to-point converges slowly along smooth surfaces)
+  double min_step_m = 2e-6;      ///< stop when the update moves points less than this, metres
   int min_correspondences = 12;  ///< fewer kept correspondences = failure
 
   std::string Check() const;

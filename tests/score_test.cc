@@ -1,0 +1,92 @@
+// S and E_obs against hand-computed cases; grid construction.
+#include "solver/score.h"
+
+#include <gtest/gtest.h>
+
+namespace g6d {
+namespace {
+
+// A 10 x 10 grid with a 4 x 5 observed mask at depth 1 m.
+EvaluationGrid MakeGrid() {
+  EvaluationGrid grid;
+  grid.camera = {100, 100, 5, 5, 10, 10};
+  grid.mask = cv::Mat::zeros(10, 10, CV_8U);
+  grid.depth = cv::Mat::zeros(10, 10, CV_32F);
+  grid.mask(cv::Rect(2, 2, 4, 5)).setTo(255);
+  grid.depth(cv::Rect(2, 2, 4, 5)).setTo(1.0f);
+  grid.mask_pixels = 20;
+  return grid;
+}
+
+TEST(ScoreRendering, PerfectOverlapIsZero) {
+  const EvaluationGrid grid = MakeGrid();
+  RasterImage rendered;
+  rendered.depth = grid.depth.clone();
+  const PoseScore score = ScoreRendering(grid, rendered, 1.0, ScoreOptions());
+  EXPECT_DOUBLE_EQ(score.coverage, 1.0);
+  EXPECT_DOUBLE_EQ(score.iou, 1.0);
+  EXPECT_NEAR(score.s, 0.0, 1e-9);
+  EXPECT_NEAR(score.e_obs, 0.0, 1e-12);
+  EXPECT_EQ(score.overlap_pixels, 20);
+}
+
+TEST(ScoreRendering, HandComputedShiftAndDepthOffset) {
+  const EvaluationGrid grid = MakeGrid();
+  RasterImage rendered;
+  rendered.depth = cv::Mat::zeros(10, 10, CV_32F);
+  // Rendered 4 x 5 box shifted right by 2 columns, 2 cm behind the observation.
+  rendered.depth(cv::Rect(4, 2, 4, 5)).setTo(1.02f);
+  // Intersection: columns 4..5 -> 2 x 5 = 10 px; union 20 + 20 - 10 = 30.
+  ScoreOptions options;
+  const PoseScore score = ScoreRendering(grid, rendered, 1.0, options);
+  EXPECT_DOUBLE_EQ(score.coverage, 10.0 / 20.0);
+  EXPECT_DOUBLE_EQ(score.iou, 10.0 / 30.0);
+  // E_obs = 0.7 * (1 - 0.5) + 0.3 * (1 - 1/3) = 0.35 + 0.2 = 0.55
+  EXPECT_NEAR(score.e_obs, 0.55, 1e-12);
+  // depth term = mean |1.02 - 1.0| / z_M = 0.02 (float rounding); S = 1 - 1/3 + 10 * 0.02
+  EXPECT_NEAR(score.depth_residual, 0.02, 1e-6);
+  EXPECT_NEAR(score.s, 1.0 - 1.0 / 3.0 + 0.2, 1e-5);
+}
+
+TEST(ScoreRendering, MissingObservedDepthIsNotCounted) {
+  EvaluationGrid grid = MakeGrid();
+  grid.depth(cv::Rect(2, 2, 2, 5)).setTo(0.0f);  // half the mask has no depth
+  RasterImage rendered;
+  rendered.depth = cv::Mat::zeros(10, 10, CV_32F);
+  rendered.depth(cv::Rect(2, 2, 4, 5)).setTo(1.01f);
+  const PoseScore score = ScoreRendering(grid, rendered, 1.0, ScoreOptions());
+  EXPECT_EQ(score.overlap_pixels, 10);
+  EXPECT_NEAR(score.depth_residual, 0.01, 1e-6);
+}
+
+TEST(MakeEvaluationGrid, DownscalesAroundTheMask) {
+  const Camera camera{500, 500, 320, 240, 640, 480};
+  cv::Mat mask = cv::Mat::zeros(480, 640, CV_8U);
+  mask(cv::Rect(200, 100, 200, 100)).setTo(255);
+  cv::Mat depth(480, 640, CV_32F, cv::Scalar(0.8f));
+  GridOptions options;
+  options.margin = 0.5;
+  options.max_side_px = 100;
+  const EvaluationGrid grid = MakeEvaluationGrid(camera, mask, depth, options);
+  // ROI: x 100..500, y 0..300 (clipped at the top) -> 400 x 300, scaled by 0.25.
+  EXPECT_EQ(grid.camera.width, 100);
+  EXPECT_EQ(grid.camera.height, 75);
+  EXPECT_NEAR(grid.mask_pixels, 50 * 25, 60);
+  EXPECT_DOUBLE_EQ(grid.camera.fx, 125.0);
+  EXPECT_DOUBLE_EQ(grid.camera.cx, (320.0 - 100.0) * 0.25);
+}
+
+TEST(MeanMaskedDepth, IgnoresInvalidPixels) {
+  cv::Mat mask = cv::Mat::zeros(4, 4, CV_8U);
+  mask(cv::Rect(0, 0, 2, 2)).setTo(255);
+  cv::Mat depth = cv::Mat::zeros(4, 4, CV_32F);
+  depth.at<float>(0, 0) = 1.0f;
+  depth.at<float>(0, 1) = 2.0f;
+  depth.at<float>(3, 3) = 9.0f;  // outside the mask
+  int valid = 0;
+  EXPECT_DOUBLE_EQ(MeanMaskedDepth(mask, depth, &valid), 1.5);
+  EXPECT_EQ(valid, 2);
+}
+
+}  // namespace
+}  // namespace g6d
