@@ -9,6 +9,24 @@
 
 namespace g6d {
 
+namespace {
+// Runs fn(0), ..., fn(n - 1) in order on this thread; all items run, then the exception of
+// the lowest failing index (the first one here) is rethrown, as ThreadPool does.
+void RunInOrder(int n, const std::function<void(int)>& fn) {
+  std::exception_ptr error;
+  for (int i = 0; i < n; ++i) {
+    try {
+      fn(i);
+    } catch (...) {
+      if (!error) error = std::current_exception();
+    }
+  }
+  if (error) std::rethrow_exception(error);
+}
+}  // namespace
+
+void InlineExecutor::ParallelFor(int n, const std::function<void(int)>& fn) { RunInOrder(n, fn); }
+
 ThreadPool::ThreadPool(int num_threads) {
   if (num_threads < 1) G6D_THROW("ThreadPool: num_threads must be >= 1 (got " << num_threads << ")");
   workers_.reserve(static_cast<size_t>(num_threads - 1));
@@ -49,7 +67,8 @@ struct ForState {
   std::mutex mutex;
   std::condition_variable all_done;
   int done = 0;
-  std::exception_ptr error;
+  std::exception_ptr error;  // of the lowest failing index, whichever thread ran it
+  int error_index = 0;
 
   void RunItems() {
     for (int i = next.fetch_add(1); i < n; i = next.fetch_add(1)) {
@@ -60,7 +79,10 @@ struct ForState {
         item_error = std::current_exception();
       }
       std::lock_guard<std::mutex> lock(mutex);
-      if (item_error && !error) error = item_error;
+      if (item_error && (!error || i < error_index)) {
+        error = item_error;
+        error_index = i;
+      }
       if (++done == n) all_done.notify_all();
     }
   }
@@ -70,7 +92,7 @@ struct ForState {
 void ThreadPool::ParallelFor(int n, const std::function<void(int)>& fn) {
   if (n <= 0) return;
   if (workers_.empty() || n == 1) {
-    for (int i = 0; i < n; ++i) fn(i);
+    RunInOrder(n, fn);
     return;
   }
   auto state = std::make_shared<ForState>();

@@ -22,7 +22,8 @@ class Executor {
   virtual int NumThreads() const = 0;
   /// Calls fn(i) for every i in [0, n) and returns when all calls have returned.
   /// The calling thread takes part, so nested calls from inside fn cannot deadlock.
-  /// The first exception thrown by fn is rethrown here after all items finished.
+  /// Every item runs even when some throw; afterwards the exception of the lowest failing
+  /// index is rethrown here, so any number of threads reports the same error.
   virtual void ParallelFor(int n, const std::function<void(int)>& fn) = 0;
 };
 
@@ -30,9 +31,7 @@ class Executor {
 class InlineExecutor final : public Executor {
  public:
   int NumThreads() const override { return 1; }
-  void ParallelFor(int n, const std::function<void(int)>& fn) override {
-    for (int i = 0; i < n; ++i) fn(i);
-  }
+  void ParallelFor(int n, const std::function<void(int)>& fn) override;
 };
 
 /// A fixed pool: `num_threads - 1` worker threads plus the thread that calls ParallelFor.

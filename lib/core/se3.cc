@@ -31,14 +31,24 @@ Eigen::Vector3d LogSO3(const Eigen::Matrix3d& rotation) {
 }
 
 namespace {
-// Left Jacobian V of SO(3): t = V * rho (Barfoot, eq. 7.86).
+// Left Jacobian V of SO(3): t = V * rho (Barfoot, eq. 7.86),
+// V = I + (1 - cos t) / t^2 [phi]x + (t - sin t) / t^3 [phi]x^2.
+// Both coefficients are written without cancellation: 1 - cos t = 2 sin^2(t / 2), and a
+// Taylor series for (t - sin t) / t^3 at small t (its closed form loses digits there).
 Eigen::Matrix3d LeftJacobianSO3(const Eigen::Vector3d& phi) {
   const double theta = phi.norm();
   const Eigen::Matrix3d hat = Hat(phi);
-  if (theta < 1e-6) return Eigen::Matrix3d::Identity() + 0.5 * hat + hat * hat / 6.0;
   const double t2 = theta * theta;
-  return Eigen::Matrix3d::Identity() + (1.0 - std::cos(theta)) / t2 * hat +
-         (theta - std::sin(theta)) / (t2 * theta) * hat * hat;
+  double first = 0.5;  // (1 - cos t) / t^2
+  if (theta > 0.0) {
+    const double sinc_half = std::sin(0.5 * theta) / (0.5 * theta);
+    first = 0.5 * sinc_half * sinc_half;
+  }
+  // Series truncation error below t^8 / 4e7, under 3e-16 for t < 0.1.
+  const double second = theta < 0.1
+                            ? 1.0 / 6.0 - t2 / 120.0 + t2 * t2 / 5040.0 - t2 * t2 * t2 / 362880.0
+                            : (theta - std::sin(theta)) / (t2 * theta);
+  return Eigen::Matrix3d::Identity() + first * hat + second * hat * hat;
 }
 }  // namespace
 
@@ -60,8 +70,13 @@ Vector6d LogSE3(const Eigen::Isometry3d& pose) {
 }
 
 double RotationErrorDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
-  const double c = std::clamp(((a.transpose() * b).trace() - 1.0) * 0.5, -1.0, 1.0);
-  return std::acos(c) * 180.0 / M_PI;
+  // atan2(2 sin t, 2 cos t) from the skew and trace parts of a^T b: accurate at every angle,
+  // where acos((trace - 1) / 2) loses half the digits near 0 (and near 180 degrees).
+  const Eigen::Matrix3d relative = a.transpose() * b;
+  const Eigen::Vector3d twice_sin_axis(relative(2, 1) - relative(1, 2),
+                                       relative(0, 2) - relative(2, 0),
+                                       relative(1, 0) - relative(0, 1));
+  return std::atan2(twice_sin_axis.norm(), relative.trace() - 1.0) * 180.0 / M_PI;
 }
 
 double TranslationError(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
@@ -84,8 +99,9 @@ Eigen::Isometry3d MakePose(const Eigen::Matrix3d& rotation, const Eigen::Vector3
 
 Eigen::Isometry3d LookAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target,
                          const Eigen::Vector3d& up) {
+  // Right-handed camera frame with y = -up (projected): x = y.cross(z) = z.cross(up).
   const Eigen::Vector3d z = (target - eye).normalized();
-  Eigen::Vector3d x = z.cross(-up);
+  Eigen::Vector3d x = z.cross(up.normalized());
   if (x.norm() < 1e-9) x = z.unitOrthogonal();  // looking along up: any x will do
   x.normalize();
   const Eigen::Vector3d y = z.cross(x);

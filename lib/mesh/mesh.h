@@ -31,36 +31,52 @@ struct Mesh {
   std::vector<Eigen::Vector3f> normals;   ///< unit vertex normals (optional)
   std::vector<Eigen::Vector3f> colors;    ///< vertex RGB in [0, 1] (optional)
   std::vector<Eigen::Vector2f> uvs;       ///< texture coordinates, v up as in OBJ (optional)
-  cv::Mat texture;                        ///< CV_8UC3 RGB texture image (optional)
+  cv::Mat texture;  ///< CV_8UC3 RGB texture image, row 0 at the top (v = 1) (optional)
 
+  /// True when every vertex has an RGB colour.
   bool HasColors() const { return !colors.empty(); }
+  /// True when every vertex has texture coordinates into `texture`.
   bool HasTexture() const { return !uvs.empty() && !texture.empty(); }
 };
 
-/// Loads a mesh, merging all assimp sub-meshes, scaling to metres.
-/// Throws g6d::Error naming the file and the problem when it is missing, unreadable,
-/// empty, or holds non-triangle faces (points, lines) only.
+/// Loads a mesh, merging all assimp sub-meshes (with their node transforms), scaling to
+/// metres. Polygons are triangulated; points and lines are dropped. PLY vertex colours are
+/// kept (alpha dropped); an OBJ/MTL diffuse texture is read (path relative to the OBJ's
+/// folder) with its UVs. When parts use different textures, or some parts are untextured,
+/// one atlas texture is built (textures stacked vertically, a solid patch of the material
+/// colour per untextured part) and the UVs are remapped into it. Normals come from the file
+/// when every part has them, else they are computed (area-weighted).
+/// Throws g6d::Error naming the file and the problem when it is missing, empty, not
+/// parseable, holds no meshes, holds non-triangle faces (points, lines) only, has
+/// non-finite vertices or out-of-range indices, or references a texture that cannot be read.
 Mesh LoadMesh(const std::string& path, Units units);
 
 /// Largest distance between any two vertices, metres (BOP's definition of the diameter).
+/// Exact: compares the convex hull vertices; 0 for fewer than two vertices.
 double ComputeDiameter(const Mesh& mesh);
 
-/// Axis-aligned bounding box of the vertices, metres.
+/// Axis-aligned bounding box of the vertices, metres (empty box for no vertices).
 Eigen::AlignedBox3d ComputeBoundingBox(const Mesh& mesh);
 
-/// Total surface area, square metres.
+/// Total surface area, square metres. Throws g6d::Error on out-of-range face indices.
 double ComputeSurfaceArea(const Mesh& mesh);
 
 /// `count` points uniformly distributed over the surface (area-weighted), deterministic
-/// for a given seed. If `normals` is not null it receives the face normal of each point.
+/// for a given seed on every platform. If `normals` is not null it receives the unit face
+/// normal of each point. Throws g6d::Error when count < 0 or (for count > 0) the mesh has
+/// no face with positive area.
 std::vector<Eigen::Vector3f> SampleSurface(const Mesh& mesh, int count, uint64_t seed,
                                            std::vector<Eigen::Vector3f>* normals = nullptr);
 
-/// A geometry-only copy (vertices, faces) with at most about `target_faces` faces, for
-/// online rasterization. Returns a copy unchanged when the mesh is already small enough.
+/// A geometry-only copy (vertices, faces, vertex normals) with about `target_faces` faces
+/// (not more, unless no further edge can collapse), for online rasterization: quadric error
+/// decimation after merging vertices that share a position (texture seams). When the mesh
+/// already has at most `target_faces` faces its vertices and faces are copied unchanged.
+/// Throws g6d::Error if target_faces < 1.
 Mesh Decimate(const Mesh& mesh, int target_faces);
 
-/// Recomputes area-weighted unit vertex normals from the faces.
+/// Recomputes area-weighted unit vertex normals from the faces (+z for vertices on no
+/// face with positive area). Throws g6d::Error on out-of-range face indices.
 void ComputeVertexNormals(Mesh* mesh);
 
 }  // namespace g6d

@@ -1,0 +1,152 @@
+// g6d-solve: one frame from image files -> pose, S_A, confidence and the stage report.
+// No LCM: the same EstimatePose the service runs.
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "core/error.h"
+#include "core/executor.h"
+#include "render/raster.h"
+#include "solver/pipeline.h"
+#include "templates/cache.h"
+
+namespace {
+
+std::vector<double> ParseList(const std::string& text, size_t expected, const std::string& what) {
+  std::vector<double> values;
+  std::stringstream stream(text);
+  std::string item;
+  while (std::getline(stream, item, ',')) {
+    try {
+      values.push_back(std::stod(item));
+    } catch (const std::exception&) {
+      G6D_THROW(what << ": '" << item << "' is not a number");
+    }
+  }
+  if (values.size() != expected) G6D_THROW(what << ": expected " << expected << " comma-separated numbers, got " << values.size());
+  return values;
+}
+
+cv::Mat ReadImage(const std::string& path, int flags, const std::string& what) {
+  cv::Mat image = cv::imread(path, flags);
+  if (image.empty()) G6D_THROW(what << ": cannot read image '" << path << "'");
+  return image;
+}
+
+// Draws the model's projected silhouette contour (green) and its axes (x red, y green, z blue).
+void DrawOverlay(const g6d::TemplateBank& bank, const g6d::Camera& camera, const Eigen::Isometry3d& pose,
+                 cv::Mat* bgr) {
+  g6d::RasterImage raster;
+  g6d::Rasterize(bank.online_mesh, camera, pose, g6d::RasterOptions(), &raster);
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(raster.Mask(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  cv::drawContours(*bgr, contours, -1, cv::Scalar(60, 255, 60), 2, cv::LINE_AA);
+  const double length = 0.5 * bank.diameter_m;
+  const Eigen::Vector3d origin = pose * bank.bounding_box.center();
+  const Eigen::Vector2d o = camera.Project(origin) - Eigen::Vector2d::Constant(g6d::kOpenCvToImage);
+  const cv::Scalar colors[3] = {cv::Scalar(0, 0, 255), cv::Scalar(0, 200, 0), cv::Scalar(255, 0, 0)};
+  for (int axis = 0; axis < 3; ++axis) {
+    const Eigen::Vector3d tip = origin + pose.linear().col(axis) * length;
+    if (tip.z() <= 0.0) continue;
+    const Eigen::Vector2d t = camera.Project(tip) - Eigen::Vector2d::Constant(g6d::kOpenCvToImage);
+    cv::arrowedLine(*bgr, cv::Point2d(o.x(), o.y()), cv::Point2d(t.x(), t.y()), colors[axis], 2, cv::LINE_AA, 0, 0.1);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"g6d-solve: estimate one object's 6D pose from RGB-D + mask files"};
+  std::string cache_path, rgb_path, depth_path, mask_path, k_text, overlay_path, json_path;
+  double depth_scale_mm = 1.0;
+  int hypotheses = 18, threads = 2;
+  bool no_mhpo = false;
+  app.add_option("--cache", cache_path, "template cache file (g6d-build-templates)")->required();
+  app.add_option("--rgb", rgb_path, "colour image (PNG/JPEG)")->required();
+  app.add_option("--depth", depth_path, "16-bit depth PNG")->required();
+  app.add_option("--depth-scale", depth_scale_mm, "millimetres per depth unit (BOP depth_scale)")->capture_default_str();
+  app.add_option("--mask", mask_path, "8-bit instance mask PNG (non-zero = object)")->required();
+  app.add_option("--K", k_text, "intrinsics fx,fy,cx,cy in pixels (pixel centres at +0.5)")->required();
+  app.add_option("--hypotheses", hypotheses, "K = N_H, hypotheses refined by ICP and MHPO")->capture_default_str();
+  app.add_option("--threads", threads, "worker threads")->capture_default_str();
+  app.add_flag("--no-mhpo", no_mhpo, "skip MHPO (ablation)");
+  app.add_option("--overlay", overlay_path, "write the image with the projected model contour and axes");
+  app.add_option("--json", json_path, "write the result as JSON");
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    const std::vector<double> k = ParseList(k_text, 4, "--K");
+    const g6d::TemplateBank bank = g6d::ReadTemplateCache(cache_path);
+    const cv::Mat bgr = ReadImage(rgb_path, cv::IMREAD_COLOR, "--rgb");
+    const cv::Mat depth_raw = ReadImage(depth_path, cv::IMREAD_ANYDEPTH, "--depth");
+    const cv::Mat mask_raw = ReadImage(mask_path, cv::IMREAD_GRAYSCALE, "--mask");
+    if (depth_raw.type() != CV_16U) G6D_THROW("--depth: '" << depth_path << "' is not a 16-bit image");
+    g6d::Frame frame;
+    frame.camera = {k[0], k[1], k[2], k[3], bgr.cols, bgr.rows};
+    cv::cvtColor(bgr, frame.rgb, cv::COLOR_BGR2RGB);
+    depth_raw.convertTo(frame.depth, CV_32F, depth_scale_mm / 1000.0);
+    g6d::Instance instance{bank.object_id, mask_raw};
+
+    g6d::SolverOptions options;
+    options.num_hypotheses = hypotheses;
+    options.run_mhpo = !no_mhpo;
+    g6d::ThreadPool pool(std::max(1, threads));
+    const g6d::PoseResult result = g6d::EstimatePose(frame, instance, bank, options, &pool);
+    const g6d::StageReport& s = result.stages;
+    const Eigen::Quaterniond q(result.cam_from_object.linear());
+    const Eigen::Vector3d t = result.cam_from_object.translation();
+    std::printf("object      %s\n", bank.object_id.c_str());
+    std::printf("status      %s (%s)\n", result.success ? "ok" : "failed", g6d::TerminationName(result.termination));
+    if (!result.success) std::printf("reason      %s\n", result.message.c_str());
+    std::printf("t (m)       %.4f %.4f %.4f\n", t.x(), t.y(), t.z());
+    std::printf("q (wxyz)    %.5f %.5f %.5f %.5f\n", q.w(), q.x(), q.y(), q.z());
+    std::printf("S_A         %.4f   confidence %.3f   IoU %.3f   depth residual %.4f\n", result.score,
+                result.confidence, result.details.iou, result.details.depth_residual);
+    std::printf("stages      features %d | sets %d (best Q %.1f) | PnP %d | kept %d (best E_obs %.3f) | ICP ok %d (best S %.3f) | MHPO best S %.3f\n",
+                s.query_features, s.correspondence_sets, s.best_quality, s.pnp_hypotheses, s.kept_hypotheses,
+                s.best_e_obs, s.icp_converged, s.best_s_after_icp, result.score);
+    std::printf("time (ms)   prepare %.1f  features %.1f  match %.1f  pnp %.1f  observable %.1f  icp %.1f  mhpo %.1f  total %.1f\n",
+                s.prepare_ms, s.features_ms, s.match_ms, s.pnp_ms, s.observable_ms, s.icp_ms, s.mhpo_ms, s.total_ms);
+    if (!overlay_path.empty()) {
+      cv::Mat overlay = bgr.clone();
+      if (result.success) DrawOverlay(bank, frame.camera, result.cam_from_object, &overlay);
+      if (!cv::imwrite(overlay_path, overlay)) G6D_THROW("--overlay: cannot write '" << overlay_path << "'");
+      std::printf("overlay     %s\n", overlay_path.c_str());
+    }
+    if (!json_path.empty()) {
+      nlohmann::json j;
+      j["object_id"] = bank.object_id;
+      j["success"] = result.success;
+      j["termination"] = g6d::TerminationName(result.termination);
+      j["message"] = result.message;
+      j["position_m"] = {t.x(), t.y(), t.z()};
+      j["orientation_wxyz"] = {q.w(), q.x(), q.y(), q.z()};
+      j["score"] = result.score;
+      j["confidence"] = result.confidence;
+      j["iou"] = result.details.iou;
+      j["depth_residual"] = result.details.depth_residual;
+      j["stages"] = {{"query_features", s.query_features}, {"correspondence_sets", s.correspondence_sets},
+                     {"pnp_hypotheses", s.pnp_hypotheses}, {"kept_hypotheses", s.kept_hypotheses},
+                     {"icp_converged", s.icp_converged}, {"best_e_obs", s.best_e_obs},
+                     {"best_s_after_icp", s.best_s_after_icp}};
+      j["time_ms"] = {{"prepare", s.prepare_ms}, {"features", s.features_ms}, {"match", s.match_ms},
+                      {"pnp", s.pnp_ms}, {"observable", s.observable_ms}, {"icp", s.icp_ms},
+                      {"mhpo", s.mhpo_ms}, {"total", s.total_ms}};
+      std::ofstream out(json_path);
+      if (!out) G6D_THROW("--json: cannot write '" << json_path << "'");
+      out << j.dump(2) << "\n";
+    }
+    return result.success ? 0 : 3;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "g6d-solve: error: %s\n", e.what());
+    return 2;
+  }
+}
