@@ -1,1 +1,748 @@
-// placeholder: implemented in issue 2
+#include "templates/cache.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <memory>
+#include <thread>
+#include <vector>
+
+#include <zstd.h>
+
+#include "core/error.h"
+#include "core/hash.h"
+
+namespace g6d {
+namespace {
+
+// ---- Layout constants -------------------------------------------------------------------
+
+constexpr char kMagic[8] = {'G', '6', 'D', 'C', 'A', 'C', 'H', 'E'};
+constexpr size_t kHeaderSize = 64;
+// Header field offsets.
+constexpr size_t kVersionOffset = 8;
+constexpr size_t kHeaderSizeOffset = 12;
+constexpr size_t kBodySizeOffset = 16;
+constexpr size_t kCompressedSizeOffset = 24;
+constexpr size_t kBodyChecksumOffset = 32;
+constexpr size_t kHeaderChecksumOffset = 56;  // FNV-1a 64 of bytes [0, 56)
+
+// Bounds on everything a file can declare; checked before any allocation.
+constexpr uint64_t kMaxBodyBytes = uint64_t{1} << 31;  // 2 GiB uncompressed
+constexpr uint32_t kMaxStringBytes = 4096;
+constexpr uint32_t kMaxSymmetries = 4096;
+constexpr uint32_t kMaxVertices = 10000000;
+constexpr uint32_t kMaxFaces = 20000000;
+constexpr uint32_t kMaxTemplates = 100000;
+constexpr uint32_t kMaxKeypointsPerTemplate = 100000;
+constexpr int32_t kMaxImageSide = 8192;
+
+// ---- Little-endian writer -----------------------------------------------------------------
+
+class Writer {
+ public:
+  void U8(uint8_t v) { bytes_.push_back(static_cast<char>(v)); }
+  void U32(uint32_t v) {
+    for (int i = 0; i < 4; ++i) U8(static_cast<uint8_t>(v >> (8 * i)));
+  }
+  void U64(uint64_t v) {
+    for (int i = 0; i < 8; ++i) U8(static_cast<uint8_t>(v >> (8 * i)));
+  }
+  void I32(int32_t v) { U32(static_cast<uint32_t>(v)); }
+  void F32(float v) {
+    uint32_t bits;
+    std::memcpy(&bits, &v, 4);
+    U32(bits);
+  }
+  void F64(double v) {
+    uint64_t bits;
+    std::memcpy(&bits, &v, 8);
+    U64(bits);
+  }
+  void Bytes(const void* data, size_t size) { bytes_.append(static_cast<const char*>(data), size); }
+  /// Floats as four byte planes (all least significant bytes first, then the next, ...):
+  /// sign/exponent and high-mantissa planes then compress well, unlike interleaved floats.
+  void ShuffledF32(const float* values, size_t n) {
+    std::vector<uint32_t> bits(n);
+    if (n > 0) std::memcpy(bits.data(), values, n * 4);
+    for (int plane = 0; plane < 4; ++plane)
+      for (size_t i = 0; i < n; ++i) U8(static_cast<uint8_t>(bits[i] >> (8 * plane)));
+  }
+  void String(const std::string& s) {
+    if (s.size() > kMaxStringBytes) {
+      G6D_THROW("WriteTemplateCache: string of " << s.size() << " bytes exceeds the limit of "
+                                                 << kMaxStringBytes);
+    }
+    U32(static_cast<uint32_t>(s.size()));
+    Bytes(s.data(), s.size());
+  }
+  void Count(size_t n, uint32_t max, const char* what) {
+    if (n > max) G6D_THROW("WriteTemplateCache: " << what << " count " << n << " exceeds " << max);
+    U32(static_cast<uint32_t>(n));
+  }
+  std::string& bytes() { return bytes_; }
+
+ private:
+  std::string bytes_;
+};
+
+// ---- Bounded little-endian reader ----------------------------------------------------------
+
+class Reader {
+ public:
+  Reader(const uint8_t* data, size_t size, const std::string& name)
+      : data_(data), size_(size), name_(name) {}
+
+  size_t Remaining() const { return size_ - position_; }
+
+  void Need(size_t n, const char* what) const {
+    if (n > Remaining()) {
+      G6D_THROW(name_ << ": truncated: body ends while reading " << what << " (need " << n
+                      << " bytes, " << Remaining() << " left)");
+    }
+  }
+  uint8_t U8(const char* what) {
+    Need(1, what);
+    return data_[position_++];
+  }
+  uint32_t U32(const char* what) {
+    Need(4, what);
+    uint32_t v = 0;
+    for (int i = 0; i < 4; ++i) v |= static_cast<uint32_t>(data_[position_ + i]) << (8 * i);
+    position_ += 4;
+    return v;
+  }
+  uint64_t U64(const char* what) {
+    Need(8, what);
+    uint64_t v = 0;
+    for (int i = 0; i < 8; ++i) v |= static_cast<uint64_t>(data_[position_ + i]) << (8 * i);
+    position_ += 8;
+    return v;
+  }
+  int32_t I32(const char* what) { return static_cast<int32_t>(U32(what)); }
+  float F32(const char* what) {
+    const uint32_t bits = U32(what);
+    float v;
+    std::memcpy(&v, &bits, 4);
+    return v;
+  }
+  double F64(const char* what) {
+    const uint64_t bits = U64(what);
+    double v;
+    std::memcpy(&v, &bits, 8);
+    return v;
+  }
+  /// A finite double.
+  double Finite(const char* what) {
+    const double v = F64(what);
+    if (!std::isfinite(v)) Fail(what, "is not finite");
+    return v;
+  }
+  float FiniteF32(const char* what) {
+    const float v = F32(what);
+    if (!std::isfinite(v)) Fail(what, "is not finite");
+    return v;
+  }
+  void Bytes(void* out, size_t n, const char* what) {
+    Need(n, what);
+    std::memcpy(out, data_ + position_, n);
+    position_ += n;
+  }
+  /// Inverse of Writer::ShuffledF32; every value must be finite.
+  void ShuffledFiniteF32(float* values, size_t n, const char* what) {
+    Need(4 * n, what);
+    std::vector<uint32_t> bits(n, 0);
+    for (int plane = 0; plane < 4; ++plane)
+      for (size_t i = 0; i < n; ++i)
+        bits[i] |= static_cast<uint32_t>(data_[position_++]) << (8 * plane);
+    if (n > 0) std::memcpy(values, bits.data(), n * 4);
+    for (size_t i = 0; i < n; ++i) {
+      if (!std::isfinite(values[i])) Fail(what, "is not finite");
+    }
+  }
+  /// A count of items of `item_bytes` each, bounded by `max` and by the bytes left, so
+  /// nothing is allocated for a count the file cannot back.
+  uint32_t Count(uint32_t max, size_t item_bytes, const char* what) {
+    const uint32_t n = U32(what);
+    if (n > max) {
+      G6D_THROW(name_ << ": corrupted: " << what << " count " << n << " exceeds the limit " << max);
+    }
+    if (static_cast<uint64_t>(n) * item_bytes > Remaining()) {
+      G6D_THROW(name_ << ": truncated: " << what << " count " << n << " needs "
+                      << static_cast<uint64_t>(n) * item_bytes << " bytes, only " << Remaining()
+                      << " left");
+    }
+    return n;
+  }
+  std::string String(const char* what) {
+    const uint32_t n = Count(kMaxStringBytes, 1, what);
+    std::string s(n, '\0');
+    Bytes(s.data(), n, what);
+    return s;
+  }
+  [[noreturn]] void Fail(const char* what, const std::string& problem) const {
+    G6D_THROW(name_ << ": corrupted: " << what << " " << problem);
+  }
+
+ private:
+  const uint8_t* data_;
+  size_t size_;
+  size_t position_ = 0;
+  const std::string& name_;
+};
+
+uint32_t LoadU32(const uint8_t* p) {
+  uint32_t v = 0;
+  for (int i = 0; i < 4; ++i) v |= static_cast<uint32_t>(p[i]) << (8 * i);
+  return v;
+}
+uint64_t LoadU64(const uint8_t* p) {
+  uint64_t v = 0;
+  for (int i = 0; i < 8; ++i) v |= static_cast<uint64_t>(p[i]) << (8 * i);
+  return v;
+}
+void StoreU32(uint32_t v, uint8_t* p) {
+  for (int i = 0; i < 4; ++i) p[i] = static_cast<uint8_t>(v >> (8 * i));
+}
+void StoreU64(uint64_t v, uint8_t* p) {
+  for (int i = 0; i < 8; ++i) p[i] = static_cast<uint8_t>(v >> (8 * i));
+}
+
+// ---- Field groups -------------------------------------------------------------------------
+
+// Stored poses are rotations to (nearly) double precision; anything else is refused on
+// both sides, so a file that was written can always be read back.
+bool IsRotation(const Eigen::Matrix3d& rotation) {
+  return rotation.allFinite() &&
+         (rotation.transpose() * rotation - Eigen::Matrix3d::Identity()).norm() <= 1e-6 &&
+         rotation.determinant() > 0.0;
+}
+
+void WritePose(const Eigen::Isometry3d& pose, Writer* w) {
+  if (!IsRotation(pose.linear()) || !pose.translation().allFinite()) {
+    G6D_THROW(
+        "WriteTemplateCache: a pose or symmetry is not a rigid transform (rotation "
+        "not orthonormal or values not finite)");
+  }
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) w->F64(pose.linear()(r, c));
+  for (int r = 0; r < 3; ++r) w->F64(pose.translation()[r]);
+}
+
+Eigen::Isometry3d ReadPose(Reader* r, const char* what) {
+  Eigen::Matrix3d rotation;
+  Eigen::Vector3d translation;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) rotation(i, j) = r->Finite(what);
+  for (int i = 0; i < 3; ++i) translation[i] = r->Finite(what);
+  if (!IsRotation(rotation)) r->Fail(what, "is not a rotation");
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = rotation;
+  pose.translation() = translation;
+  return pose;
+}
+
+void WriteOptions(const TemplateBuildOptions& o, Writer* w) {
+  w->I32(o.views.num_directions);
+  w->I32(o.views.num_inplane);
+  w->F64(o.views.fill_fraction);
+  w->F64(o.crop.padding);
+  w->I32(o.crop.size_px);
+  w->I32(o.crop.background_gray);
+  w->F64(o.crop.normalized_mean);
+  w->F64(o.crop.normalized_std);
+  w->F64(o.crop.min_std);
+  w->I32(o.orb.max_features);
+  w->F32(o.orb.scale_factor);
+  w->I32(o.orb.num_levels);
+  w->I32(o.orb.edge_threshold);
+  w->I32(o.orb.fast_threshold);
+  w->I32(o.orb.mask_erosion_px);
+  w->I32(o.render_size_px);
+  w->F64(o.render_focal_px);
+  w->I32(o.online_mesh_faces);
+  w->F64(o.max_view_angle_deg);
+  w->I32(o.thumbnail_size_px);
+}
+
+TemplateBuildOptions ReadOptions(Reader* r, const std::string& name) {
+  TemplateBuildOptions o;
+  o.views.num_directions = r->I32("views.num_directions");
+  o.views.num_inplane = r->I32("views.num_inplane");
+  o.views.fill_fraction = r->F64("views.fill_fraction");
+  o.crop.padding = r->F64("crop.padding");
+  o.crop.size_px = r->I32("crop.size_px");
+  o.crop.background_gray = r->I32("crop.background_gray");
+  o.crop.normalized_mean = r->F64("crop.normalized_mean");
+  o.crop.normalized_std = r->F64("crop.normalized_std");
+  o.crop.min_std = r->F64("crop.min_std");
+  o.orb.max_features = r->I32("orb.max_features");
+  o.orb.scale_factor = r->F32("orb.scale_factor");
+  o.orb.num_levels = r->I32("orb.num_levels");
+  o.orb.edge_threshold = r->I32("orb.edge_threshold");
+  o.orb.fast_threshold = r->I32("orb.fast_threshold");
+  o.orb.mask_erosion_px = r->I32("orb.mask_erosion_px");
+  o.render_size_px = r->I32("render_size_px");
+  o.render_focal_px = r->F64("render_focal_px");
+  o.online_mesh_faces = r->I32("online_mesh_faces");
+  o.max_view_angle_deg = r->F64("max_view_angle_deg");
+  o.thumbnail_size_px = r->I32("thumbnail_size_px");
+  if (const std::string problem = o.Check(); !problem.empty()) {
+    G6D_THROW(name << ": corrupted: build option out of range: " << problem);
+  }
+  return o;
+}
+
+// Masks are 0/255; stored as alternating run lengths starting with a run of 0s.
+void WriteMask(const cv::Mat& mask, Writer* w) {
+  if (mask.empty()) {
+    w->I32(0);
+    w->I32(0);
+    w->U32(0);
+    return;
+  }
+  G6D_CHECK(mask.type() == CV_8UC1);
+  w->I32(mask.rows);
+  w->I32(mask.cols);
+  std::vector<uint32_t> runs;
+  bool value = false;
+  uint32_t run = 0;
+  for (int y = 0; y < mask.rows; ++y) {
+    const uint8_t* row = mask.ptr<uint8_t>(y);
+    for (int x = 0; x < mask.cols; ++x) {
+      const bool on = row[x] != 0;
+      if (on != value) {
+        runs.push_back(run);
+        run = 0;
+        value = on;
+      }
+      ++run;
+    }
+  }
+  runs.push_back(run);
+  w->U32(static_cast<uint32_t>(runs.size()));
+  for (uint32_t r : runs) w->U32(r);
+}
+
+cv::Mat ReadMask(Reader* r, const char* what) {
+  const int32_t rows = r->I32(what);
+  const int32_t cols = r->I32(what);
+  if (rows < 0 || cols < 0 || rows > kMaxImageSide || cols > kMaxImageSide ||
+      (rows == 0) != (cols == 0)) {
+    r->Fail(what, "has a bad size " + std::to_string(cols) + "x" + std::to_string(rows));
+  }
+  const uint64_t pixels = static_cast<uint64_t>(rows) * static_cast<uint64_t>(cols);
+  const uint32_t num_runs =
+      r->Count(static_cast<uint32_t>(std::min<uint64_t>(pixels + 1, UINT32_MAX)), 4, what);
+  if (pixels == 0) {
+    if (num_runs != 0) r->Fail(what, "is empty but has runs");
+    return cv::Mat();
+  }
+  cv::Mat mask(rows, cols, CV_8UC1);
+  uint8_t* data = mask.ptr<uint8_t>(0);  // freshly allocated: continuous
+  uint64_t filled = 0;
+  uint8_t value = 0;
+  for (uint32_t i = 0; i < num_runs; ++i) {
+    const uint32_t run = r->U32(what);
+    if (run > pixels - filled) r->Fail(what, "runs exceed the mask size");
+    std::memset(data + filled, value, run);
+    filled += run;
+    value = value ? 0 : 255;
+  }
+  if (filled != pixels) r->Fail(what, "runs do not cover the mask");
+  return mask;
+}
+
+// JPEG-LS median edge detector from the left (a), upper (b) and upper-left (c) pixels;
+// missing neighbours count as 0.
+inline uint8_t PredictPixel(const uint8_t* row, const uint8_t* above, int x) {
+  const int a = x > 0 ? row[x - 1] : 0;
+  const int b = above != nullptr ? above[x] : 0;
+  const int c = (above != nullptr && x > 0) ? above[x - 1] : 0;
+  if (c >= std::max(a, b)) return static_cast<uint8_t>(std::min(a, b));
+  if (c <= std::min(a, b)) return static_cast<uint8_t>(std::max(a, b));
+  return static_cast<uint8_t>(a + b - c);
+}
+
+void WriteGrayImage(const cv::Mat& image, Writer* w) {
+  if (image.empty()) {
+    w->I32(0);
+    w->I32(0);
+    return;
+  }
+  G6D_CHECK(image.type() == CV_8UC1);
+  w->I32(image.rows);
+  w->I32(image.cols);
+  // Each pixel minus its LOCO-I / JPEG-LS median edge prediction (mod 256): smooth images
+  // become mostly small values, which zstd packs far better than raw grey levels.
+  for (int y = 0; y < image.rows; ++y) {
+    const uint8_t* row = image.ptr<uint8_t>(y);
+    const uint8_t* above = y > 0 ? image.ptr<uint8_t>(y - 1) : nullptr;
+    for (int x = 0; x < image.cols; ++x) {
+      w->U8(static_cast<uint8_t>(row[x] - PredictPixel(row, above, x)));
+    }
+  }
+}
+
+cv::Mat ReadGrayImage(Reader* r, const char* what) {
+  const int32_t rows = r->I32(what);
+  const int32_t cols = r->I32(what);
+  if (rows < 0 || cols < 0 || rows > kMaxImageSide || cols > kMaxImageSide ||
+      (rows == 0) != (cols == 0)) {
+    r->Fail(what, "has a bad size " + std::to_string(cols) + "x" + std::to_string(rows));
+  }
+  if (rows == 0) return cv::Mat();
+  r->Need(static_cast<size_t>(rows) * static_cast<size_t>(cols), what);
+  cv::Mat image(rows, cols, CV_8UC1);
+  r->Bytes(image.ptr<uint8_t>(0), static_cast<size_t>(rows) * static_cast<size_t>(cols), what);
+  for (int y = 0; y < rows; ++y) {  // undo the prediction in the writer's order
+    uint8_t* row = image.ptr<uint8_t>(y);
+    const uint8_t* above = y > 0 ? image.ptr<uint8_t>(y - 1) : nullptr;
+    for (int x = 0; x < cols; ++x)
+      row[x] = static_cast<uint8_t>(row[x] + PredictPixel(row, above, x));
+  }
+  return image;
+}
+
+void WriteMesh(const Mesh& mesh, Writer* w) {
+  w->Count(mesh.vertices.size(), kMaxVertices, "online mesh vertex");
+  w->ShuffledF32(mesh.vertices.empty() ? nullptr : mesh.vertices[0].data(),
+                 3 * mesh.vertices.size());
+  w->Count(mesh.faces.size(), kMaxFaces, "online mesh face");
+  for (const Eigen::Vector3i& f : mesh.faces)
+    for (int i = 0; i < 3; ++i) w->I32(f[i]);
+  // Geometry only: normals when present; colours and texture are not needed online.
+  w->Count(mesh.normals.size(), kMaxVertices, "online mesh normal");
+  w->ShuffledF32(mesh.normals.empty() ? nullptr : mesh.normals[0].data(), 3 * mesh.normals.size());
+}
+
+Mesh ReadMesh(Reader* r) {
+  Mesh mesh;
+  const uint32_t num_vertices = r->Count(kMaxVertices, 12, "online mesh vertex");
+  mesh.vertices.resize(num_vertices);
+  r->ShuffledFiniteF32(num_vertices > 0 ? mesh.vertices[0].data() : nullptr,
+                       3 * size_t{num_vertices}, "online mesh vertex");
+  const uint32_t num_faces = r->Count(kMaxFaces, 12, "online mesh face");
+  mesh.faces.resize(num_faces);
+  for (Eigen::Vector3i& f : mesh.faces) {
+    for (int i = 0; i < 3; ++i) {
+      f[i] = r->I32("online mesh face");
+      if (f[i] < 0 || static_cast<uint32_t>(f[i]) >= num_vertices) {
+        r->Fail("online mesh face", "index " + std::to_string(f[i]) + " is out of range");
+      }
+    }
+  }
+  const uint32_t num_normals = r->Count(kMaxVertices, 12, "online mesh normal");
+  if (num_normals != 0 && num_normals != num_vertices) {
+    r->Fail("online mesh normal", "count differs from the vertex count");
+  }
+  mesh.normals.resize(num_normals);
+  r->ShuffledFiniteF32(num_normals > 0 ? mesh.normals[0].data() : nullptr, 3 * size_t{num_normals},
+                       "online mesh normal");
+  return mesh;
+}
+
+constexpr size_t kKeypointBytes = 8 + 32 + 12;  // xy, descriptor, point
+
+void WriteTemplate(const Template& t, Writer* w) {
+  WritePose(t.cam_from_object, w);
+  w->F64(t.crop_scale);
+  w->F64(t.crop_offset.x());
+  w->F64(t.crop_offset.y());
+  WriteMask(t.mask, w);
+  WriteGrayImage(t.thumbnail, w);
+  G6D_CHECK(t.keypoints.size() == t.descriptors.size() && t.keypoints.size() == t.points.size());
+  w->Count(t.keypoints.size(), kMaxKeypointsPerTemplate, "keypoint");
+  // Eigen fixed-size float vectors are packed arrays of 2 / 3 floats.
+  static_assert(sizeof(Eigen::Vector2f) == 8 && sizeof(Eigen::Vector3f) == 12);
+  w->ShuffledF32(t.keypoints.empty() ? nullptr : t.keypoints[0].data(), 2 * t.keypoints.size());
+  for (const auto& d : t.descriptors) w->Bytes(d.data(), d.size());
+  w->ShuffledF32(t.points.empty() ? nullptr : t.points[0].data(), 3 * t.points.size());
+}
+
+Template ReadTemplate(Reader* r) {
+  Template t;
+  t.cam_from_object = ReadPose(r, "template pose");
+  t.crop_scale = r->Finite("template crop scale");
+  if (!(t.crop_scale > 0.0)) r->Fail("template crop scale", "is not positive");
+  t.crop_offset.x() = r->Finite("template crop offset");
+  t.crop_offset.y() = r->Finite("template crop offset");
+  t.mask = ReadMask(r, "template mask");
+  t.thumbnail = ReadGrayImage(r, "template thumbnail");
+  const uint32_t n = r->Count(kMaxKeypointsPerTemplate, kKeypointBytes, "keypoint");
+  t.keypoints.resize(n);
+  t.descriptors.resize(n);
+  t.points.resize(n);
+  r->ShuffledFiniteF32(n > 0 ? t.keypoints[0].data() : nullptr, 2 * size_t{n}, "keypoint");
+  for (auto& d : t.descriptors) r->Bytes(d.data(), d.size(), "descriptor");
+  r->ShuffledFiniteF32(n > 0 ? t.points[0].data() : nullptr, 3 * size_t{n}, "3D point");
+  return t;
+}
+
+std::string EncodeBody(const TemplateBank& bank) {
+  Writer w;
+  w.String(bank.object_id);
+  w.U64(bank.mesh_hash);
+  w.String(bank.mesh_path);
+  w.U8(bank.mesh_units == Units::kMillimetres ? 1 : 0);
+  WriteOptions(bank.options, &w);
+  const Camera& c = bank.template_camera;
+  w.F64(c.fx);
+  w.F64(c.fy);
+  w.F64(c.cx);
+  w.F64(c.cy);
+  w.I32(c.width);
+  w.I32(c.height);
+  w.F64(bank.diameter_m);
+  for (int i = 0; i < 3; ++i) w.F64(bank.bounding_box.min()[i]);
+  for (int i = 0; i < 3; ++i) w.F64(bank.bounding_box.max()[i]);
+  w.Count(bank.symmetries.size(), kMaxSymmetries, "symmetry");
+  for (const Eigen::Isometry3d& s : bank.symmetries) WritePose(s, &w);
+  WriteMesh(bank.online_mesh, &w);
+  w.Count(bank.templates.size(), kMaxTemplates, "template");
+  for (const Template& t : bank.templates) WriteTemplate(t, &w);
+  return std::move(w.bytes());
+}
+
+TemplateBank DecodeBody(const uint8_t* data, size_t size, const std::string& name) {
+  Reader r(data, size, name);
+  TemplateBank bank;
+  bank.object_id = r.String("object id");
+  bank.mesh_hash = r.U64("mesh hash");
+  bank.mesh_path = r.String("mesh path");
+  const uint8_t units = r.U8("mesh units");
+  if (units > 1) r.Fail("mesh units", "code " + std::to_string(units) + " is unknown");
+  bank.mesh_units = units == 1 ? Units::kMillimetres : Units::kMetres;
+  bank.options = ReadOptions(&r, name);
+  Camera& c = bank.template_camera;
+  c.fx = r.F64("camera fx");
+  c.fy = r.F64("camera fy");
+  c.cx = r.F64("camera cx");
+  c.cy = r.F64("camera cy");
+  c.width = r.I32("camera width");
+  c.height = r.I32("camera height");
+  if (const std::string problem = c.Check(); !problem.empty()) {
+    r.Fail("template camera", problem);
+  }
+  bank.diameter_m = r.Finite("diameter");
+  if (!(bank.diameter_m > 0.0)) r.Fail("diameter", "is not positive");
+  Eigen::Vector3d box_min, box_max;
+  for (int i = 0; i < 3; ++i) box_min[i] = r.Finite("bounding box");
+  for (int i = 0; i < 3; ++i) box_max[i] = r.Finite("bounding box");
+  bank.bounding_box = Eigen::AlignedBox3d(box_min, box_max);
+  const uint32_t num_symmetries = r.Count(kMaxSymmetries, 96, "symmetry");
+  bank.symmetries.reserve(num_symmetries);
+  for (uint32_t i = 0; i < num_symmetries; ++i) bank.symmetries.push_back(ReadPose(&r, "symmetry"));
+  bank.online_mesh = ReadMesh(&r);
+  // The smallest possible template: pose, affine, empty mask/thumbnail and no keypoints.
+  constexpr size_t kMinTemplateBytes = 96 + 24 + 12 + 8 + 4;
+  const uint32_t num_templates = r.Count(kMaxTemplates, kMinTemplateBytes, "template");
+  bank.templates.reserve(num_templates);
+  for (uint32_t i = 0; i < num_templates; ++i) bank.templates.push_back(ReadTemplate(&r));
+  if (r.Remaining() != 0) {
+    G6D_THROW(name << ": corrupted: " << r.Remaining()
+                   << " unexpected bytes after the last template");
+  }
+  return bank;
+}
+
+struct ZstdCCtxDeleter {
+  void operator()(ZSTD_CCtx* context) const { ZSTD_freeCCtx(context); }
+};
+
+std::string Compress(const std::string& body, int level) {
+  std::unique_ptr<ZSTD_CCtx, ZstdCCtxDeleter> context(ZSTD_createCCtx());
+  if (!context) G6D_THROW("WriteTemplateCache: cannot create a zstd context");
+  auto check = [](size_t code, const char* what) {
+    if (ZSTD_isError(code))
+      G6D_THROW("WriteTemplateCache: zstd " << what << ": " << ZSTD_getErrorName(code));
+  };
+  check(ZSTD_CCtx_setParameter(context.get(), ZSTD_c_compressionLevel, level), "level");
+  check(ZSTD_CCtx_setParameter(context.get(), ZSTD_c_checksumFlag, 1), "checksum flag");
+  std::string compressed(ZSTD_compressBound(body.size()), '\0');
+  const size_t size =
+      ZSTD_compress2(context.get(), compressed.data(), compressed.size(), body.data(), body.size());
+  check(size, "compress");
+  compressed.resize(size);
+  return compressed;
+}
+
+std::string EncodeFile(const TemplateBank& bank, int zstd_level) {
+  const std::string body = EncodeBody(bank);
+  const std::string compressed = Compress(body, zstd_level);
+  std::array<uint8_t, kHeaderSize> header{};
+  std::memcpy(header.data(), kMagic, sizeof(kMagic));
+  StoreU32(kCacheFormatVersion, header.data() + kVersionOffset);
+  StoreU32(static_cast<uint32_t>(kHeaderSize), header.data() + kHeaderSizeOffset);
+  StoreU64(body.size(), header.data() + kBodySizeOffset);
+  StoreU64(compressed.size(), header.data() + kCompressedSizeOffset);
+  StoreU64(Fnv1a64(compressed.data(), compressed.size()), header.data() + kBodyChecksumOffset);
+  StoreU64(Fnv1a64(header.data(), kHeaderChecksumOffset), header.data() + kHeaderChecksumOffset);
+  std::string file(reinterpret_cast<const char*>(header.data()), header.size());
+  file += compressed;
+  return file;
+}
+
+}  // namespace
+
+void WriteTemplateCache(const TemplateBank& bank, const std::string& path, int zstd_level) {
+  if (zstd_level < 1 || zstd_level > ZSTD_maxCLevel()) {
+    G6D_THROW("WriteTemplateCache: zstd_level must be in 1.." << ZSTD_maxCLevel() << " (got "
+                                                              << zstd_level << ")");
+  }
+  const std::string file = EncodeFile(bank, zstd_level);
+  // Write next to the target, fsync, then rename: readers never see a half-written cache,
+  // not even after a crash. The name is unique per process and thread.
+  const std::string temp_path =
+      path + ".tmp." + std::to_string(::getpid()) + "." +
+      std::to_string(std::hash<std::thread::id>()(std::this_thread::get_id()) % 1000000);
+  const int fd = ::open(temp_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) G6D_THROW("cannot create '" << temp_path << "': " << std::strerror(errno));
+  size_t written = 0;
+  while (written < file.size()) {
+    const ssize_t n = ::write(fd, file.data() + written, file.size() - written);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    written += static_cast<size_t>(n);
+  }
+  const int write_error = written == file.size() ? 0 : errno;
+  const bool synced = write_error == 0 && ::fsync(fd) == 0;
+  const int sync_error = errno;
+  const bool closed = ::close(fd) == 0;
+  if (write_error != 0 || !synced || !closed) {
+    std::remove(temp_path.c_str());
+    G6D_THROW("cannot write '" << temp_path << "': "
+                               << std::strerror(write_error != 0 ? write_error : sync_error));
+  }
+  if (std::rename(temp_path.c_str(), path.c_str()) != 0) {
+    const int error = errno;
+    std::remove(temp_path.c_str());
+    G6D_THROW("cannot rename '" << temp_path << "' to '" << path << "': " << std::strerror(error));
+  }
+}
+
+namespace {
+
+struct HeaderInfo {
+  uint64_t body_size = 0;
+  uint64_t compressed_size = 0;
+  uint64_t body_checksum = 0;
+};
+
+// Validates the first min(file_size, 64) bytes of a file of `file_size` bytes.
+HeaderInfo CheckHeader(const uint8_t* data, size_t available, uint64_t file_size,
+                       const std::string& name) {
+  const size_t magic_bytes = std::min(available, sizeof(kMagic));
+  if (std::memcmp(data, kMagic, magic_bytes) != 0) {
+    G6D_THROW(name << ": not a g6d cache (bad magic)");
+  }
+  if (file_size < kHeaderSize) {
+    G6D_THROW(name << ": truncated: " << file_size << " bytes, shorter than the " << kHeaderSize
+                   << "-byte header");
+  }
+  const uint32_t version = LoadU32(data + kVersionOffset);
+  if (version != kCacheFormatVersion) {
+    G6D_THROW(name << ": unsupported cache format version " << version << " (expected "
+                   << kCacheFormatVersion << "); rebuild it with g6d-build-templates");
+  }
+  if (Fnv1a64(data, kHeaderChecksumOffset) != LoadU64(data + kHeaderChecksumOffset)) {
+    G6D_THROW(name << ": corrupted: checksum mismatch (header)");
+  }
+  if (LoadU32(data + kHeaderSizeOffset) != kHeaderSize) {
+    G6D_THROW(name << ": corrupted: header size " << LoadU32(data + kHeaderSizeOffset)
+                   << " (expected " << kHeaderSize << ")");
+  }
+  HeaderInfo info;
+  info.body_size = LoadU64(data + kBodySizeOffset);
+  info.compressed_size = LoadU64(data + kCompressedSizeOffset);
+  info.body_checksum = LoadU64(data + kBodyChecksumOffset);
+  const uint64_t available_body = file_size - kHeaderSize;
+  if (info.compressed_size > available_body) {
+    G6D_THROW(name << ": truncated: header declares " << info.compressed_size
+                   << " compressed body bytes, file has " << available_body);
+  }
+  if (info.compressed_size < available_body) {
+    G6D_THROW(name << ": corrupted: " << (available_body - info.compressed_size)
+                   << " unexpected bytes after the body");
+  }
+  if (info.body_size > kMaxBodyBytes) {
+    G6D_THROW(name << ": corrupted: body size " << info.body_size << " exceeds the limit "
+                   << kMaxBodyBytes);
+  }
+  return info;
+}
+
+TemplateBank DecodeCompressedBody(const HeaderInfo& info, const uint8_t* compressed,
+                                  const std::string& name) {
+  if (Fnv1a64(compressed, info.compressed_size) != info.body_checksum) {
+    G6D_THROW(name << ": corrupted: checksum mismatch");
+  }
+  const unsigned long long frame_size = ZSTD_getFrameContentSize(compressed, info.compressed_size);
+  if (frame_size != info.body_size) {
+    G6D_THROW(name << ": corrupted: zstd frame content size does not match the header's "
+                   << info.body_size << " bytes");
+  }
+  std::vector<uint8_t> body(info.body_size);
+  const size_t got = ZSTD_decompress(body.data(), body.size(), compressed, info.compressed_size);
+  if (ZSTD_isError(got)) {
+    G6D_THROW(name << ": corrupted: zstd: " << ZSTD_getErrorName(got));
+  }
+  if (got != info.body_size) {
+    G6D_THROW(name << ": corrupted: body decompressed to " << got << " bytes, expected "
+                   << info.body_size);
+  }
+  return DecodeBody(body.data(), body.size(), name);
+}
+
+}  // namespace
+
+TemplateBank ParseTemplateCache(const std::string& bytes, const std::string& name) {
+  const auto* data = reinterpret_cast<const uint8_t*>(bytes.data());
+  const HeaderInfo info =
+      CheckHeader(data, std::min(bytes.size(), kHeaderSize), bytes.size(), name);
+  return DecodeCompressedBody(info, data + kHeaderSize, name);
+}
+
+TemplateBank ReadTemplateCache(const std::string& path) {
+  const std::string name = "template cache '" + path + "'";
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  if (!in) G6D_THROW("cannot open " << name << ": " << std::strerror(errno));
+  const std::streamoff end = in.tellg();
+  if (end < 0) G6D_THROW("cannot read " << name);
+  const uint64_t file_size = static_cast<uint64_t>(end);
+  in.seekg(0);
+  // Header first, so a huge or foreign file is refused before its bulk is read.
+  std::array<uint8_t, kHeaderSize> header{};
+  const size_t header_bytes = static_cast<size_t>(std::min<uint64_t>(file_size, kHeaderSize));
+  in.read(reinterpret_cast<char*>(header.data()), static_cast<std::streamsize>(header_bytes));
+  if (!in) G6D_THROW("cannot read " << name);
+  const HeaderInfo info = CheckHeader(header.data(), header_bytes, file_size, name);
+  std::vector<uint8_t> compressed(info.compressed_size);
+  in.read(reinterpret_cast<char*>(compressed.data()),
+          static_cast<std::streamsize>(compressed.size()));
+  if (!in) G6D_THROW(name << ": truncated: the body could not be read completely");
+  return DecodeCompressedBody(info, compressed.data(), name);
+}
+
+TemplateBank ReadTemplateCacheChecked(const std::string& path, const std::string& mesh_path) {
+  TemplateBank bank = ReadTemplateCache(path);
+  const uint64_t mesh_hash = HashFile(mesh_path);
+  if (mesh_hash != bank.mesh_hash) {
+    G6D_THROW("template cache '" << path << "': stale: mesh hash " << HexString(mesh_hash)
+                                 << " of '" << mesh_path << "' differs from "
+                                 << HexString(bank.mesh_hash)
+                                 << " stored in the cache; rebuild it with g6d-build-templates");
+  }
+  return bank;
+}
+
+}  // namespace g6d

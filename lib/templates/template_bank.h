@@ -28,12 +28,20 @@ struct TemplateBuildOptions {
   ViewSamplingOptions views;
   CropOptions crop;
   OrbOptions orb;
-  int render_size_px = 512;      ///< side of the square template render, pixels
-  double render_focal_px = 600;  ///< focal length of the template camera, pixels
+  /// Side of the square template render, pixels. With fill_fraction 0.8 the mask box is
+  /// at most ~256 px, so the crop (S = 256) samples the render at about its resolution;
+  /// rendering larger only costs time (OSMesa is most of the build).
+  int render_size_px = 320;
+  double render_focal_px = 400;  ///< focal length of the template camera, pixels
   int online_mesh_faces = 4000;  ///< face budget of the decimated online mesh
   /// Keypoints whose surface is seen at a grazing angle beyond this are dropped, degrees.
   double max_view_angle_deg = 80.0;
+  /// Side of the grey thumbnail of each normalized crop kept for inspection, pixels
+  /// (0 = none). Not used by the solver. 48 px costs ~0.3 MB per 324-template cache
+  /// (64 px: ~0.48 MB, which pushed textured objects over the 3 MB budget).
+  int thumbnail_size_px = 48;
 
+  /// Empty when valid, else names the bad field.
   std::string Check() const;
 };
 
@@ -43,25 +51,31 @@ struct Template {
   /// Crop affine A_j: template image px (OpenCV) = scale * crop px + offset.
   double crop_scale = 1.0;
   Eigen::Vector2d crop_offset = Eigen::Vector2d::Zero();
-  cv::Mat mask;                          ///< CV_8U S x S normalized-crop mask, 0/255
-  std::vector<Eigen::Vector2f> keypoints;  ///< v_ji, template image px (OpenCV convention)
+  cv::Mat mask;  ///< CV_8U S x S normalized-crop mask, 0/255
+  /// v_ji, template image px (OpenCV convention), rounded to 1/64 px.
+  std::vector<Eigen::Vector2f> keypoints;
   std::vector<std::array<uint8_t, 32>> descriptors;  ///< d_ji
-  std::vector<Eigen::Vector3f> points;   ///< X_ji, object frame, metres
+  /// X_ji, object frame, metres, rounded to 2^-16 m (15 um) so the cache compresses.
+  std::vector<Eigen::Vector3f> points;
+  /// CV_8U thumbnail_size_px square: the normalized grey crop, downscaled (may be empty).
+  /// Area-resampled, so in OpenCV pixel coordinates
+  /// thumbnail = (crop + 0.5) * thumbnail side / S - 0.5.
+  cv::Mat thumbnail;
 };
 
 /// A complete bank for one object. Plain data plus a few derived lookups.
 struct TemplateBank {
-  std::string object_id;        ///< e.g. "obj_000005"
-  uint64_t mesh_hash = 0;       ///< FNV-1a 64 of the source mesh file bytes
-  std::string mesh_path;        ///< source mesh path at build time (informational)
+  std::string object_id;   ///< e.g. "obj_000005"
+  uint64_t mesh_hash = 0;  ///< FNV-1a 64 of the source mesh file bytes
+  std::string mesh_path;   ///< source mesh path at build time (informational)
   Units mesh_units = Units::kMetres;
   TemplateBuildOptions options;
-  Camera template_camera;       ///< intrinsics and size of every template render
+  Camera template_camera;  ///< intrinsics and size of every template render
   double diameter_m = 0.0;
   Eigen::AlignedBox3d bounding_box;  ///< metres, object frame
   /// Symmetry transforms (object_from_object), identity excluded; empty = asymmetric.
   std::vector<Eigen::Isometry3d> symmetries;
-  Mesh online_mesh;             ///< decimated geometry for online rasterization
+  Mesh online_mesh;  ///< decimated geometry for online rasterization
   std::vector<Template> templates;
 
   /// Total number of keypoints over all templates.
@@ -73,7 +87,11 @@ using ProgressCallback = std::function<void(int, int)>;
 
 /// Renders and processes all template views of `mesh` (paper Sec. III-B). Views fan out
 /// over `executor`; each worker thread uses its own OSMesa context. The result is the
-/// same for any number of threads. Throws g6d::Error on bad options.
+/// same for any number of threads. `progress` is called after each view, serialized
+/// (never concurrently), with a done count that increases by one per call.
+/// Fills everything except the provenance fields `mesh_hash`, `mesh_path` and
+/// `mesh_units`, which the caller (who read the file) sets. Throws g6d::Error on bad
+/// options, an empty mesh or a renderer failure.
 TemplateBank BuildTemplateBank(const Mesh& mesh, const std::string& object_id,
                                const TemplateBuildOptions& options, Executor* executor,
                                const ProgressCallback& progress = nullptr);

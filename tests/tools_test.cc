@@ -1,0 +1,185 @@
+// Runs the built g6d-build-templates and g6d-inspect binaries end to end.
+
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include "templates/cache.h"
+#include "test_util.h"
+
+namespace g6d {
+namespace {
+
+using ::testing::HasSubstr;
+
+const std::string kBuildTemplates = G6D_BINARY_DIR "/tools/g6d-build-templates";
+const std::string kInspect = G6D_BINARY_DIR "/tools/g6d-inspect";
+
+struct RunResult {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr
+};
+
+RunResult RunCommand(const std::string& command) {
+  RunResult result;
+  FILE* pipe = ::popen((command + " 2>&1").c_str(), "r");
+  if (pipe == nullptr) return result;
+  char buffer[4096];
+  size_t n;
+  while ((n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0) result.output.append(buffer, n);
+  const int status = ::pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
+// An ASCII PLY box in millimetres with a random vertex-colour checker on every side (each
+// quad has its own four vertices so the colours change sharply).
+void WriteCheckerBoxPly(const std::string& path) {
+  const double half[3] = {40.0, 30.0, 20.0};
+  const int cells = 10;
+  std::mt19937 rng(5);
+  std::uniform_int_distribution<int> colour(10, 245);
+  std::vector<std::string> vertices, faces;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (int sign : {-1, 1}) {
+      const int u_axis = (axis + 1) % 3, v_axis = (axis + 2) % 3;
+      for (int i = 0; i < cells; ++i) {
+        for (int j = 0; j < cells; ++j) {
+          const int r = colour(rng), g = colour(rng), b = colour(rng);
+          const int base = static_cast<int>(vertices.size());
+          for (int corner = 0; corner < 4; ++corner) {
+            const int di = (corner == 1 || corner == 2) ? 1 : 0;
+            const int dj = corner >= 2 ? 1 : 0;
+            double p[3];
+            p[axis] = sign * half[axis];
+            p[u_axis] = half[u_axis] * (-1.0 + 2.0 * (i + di) / cells);
+            p[v_axis] = half[v_axis] * (-1.0 + 2.0 * (j + dj) / cells);
+            vertices.push_back(std::to_string(p[0]) + " " + std::to_string(p[1]) + " " +
+                               std::to_string(p[2]) + " " + std::to_string(r) + " " +
+                               std::to_string(g) + " " + std::to_string(b));
+          }
+          const std::string b0 = std::to_string(base), b1 = std::to_string(base + 1),
+                            b2 = std::to_string(base + 2), b3 = std::to_string(base + 3);
+          if (sign > 0) {
+            faces.push_back("3 " + b0 + " " + b1 + " " + b2);
+            faces.push_back("3 " + b0 + " " + b2 + " " + b3);
+          } else {
+            faces.push_back("3 " + b0 + " " + b2 + " " + b1);
+            faces.push_back("3 " + b0 + " " + b3 + " " + b2);
+          }
+        }
+      }
+    }
+  }
+  std::ofstream out(path);
+  out << "ply\nformat ascii 1.0\nelement vertex " << vertices.size()
+      << "\nproperty float x\nproperty float y\nproperty float z\n"
+         "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+      << "element face " << faces.size()
+      << "\nproperty list uchar int vertex_indices\nend_header\n";
+  for (const auto& v : vertices) out << v << "\n";
+  for (const auto& f : faces) out << f << "\n";
+}
+
+TEST(Tools, BuildTemplatesThenInspect) {
+  ASSERT_TRUE(std::filesystem::exists(kBuildTemplates)) << kBuildTemplates;
+  ASSERT_TRUE(std::filesystem::exists(kInspect)) << kInspect;
+  const std::string dir = test::TempDir("tools_build");
+  const std::string mesh = dir + "/box.ply";
+  WriteCheckerBoxPly(mesh);
+  const std::string cache = dir + "/caches/obj_000077.g6dcache";
+
+  const RunResult build =
+      RunCommand(kBuildTemplates + " --mesh " + mesh + " --units mm --object-id obj_000077 --out " +
+                 cache + " --views 12 --threads 2");
+  ASSERT_EQ(build.exit_code, 0) << build.output;
+  EXPECT_THAT(build.output, HasSubstr("12 templates"));
+  EXPECT_THAT(build.output, HasSubstr("templates 12/12"));  // progress lines (not a terminal)
+  ASSERT_TRUE(std::filesystem::exists(cache));
+
+  const TemplateBank bank = ReadTemplateCacheChecked(cache, mesh);
+  EXPECT_EQ(bank.object_id, "obj_000077");
+  EXPECT_EQ(bank.templates.size(), 12u);
+  EXPECT_EQ(bank.options.views.num_inplane * bank.options.views.num_directions, 12);
+  EXPECT_NEAR(bank.diameter_m, 2.0 * std::sqrt(40.0 * 40 + 30 * 30 + 20 * 20) * 1e-3, 1e-6);
+  EXPECT_GT(bank.NumKeypoints(), 12u * 50u);
+
+  const std::string sheet = dir + "/sheet.png";
+  const RunResult inspect = RunCommand(kInspect + " " + cache + " --sheet " + sheet + " --max 9");
+  ASSERT_EQ(inspect.exit_code, 0) << inspect.output;
+  EXPECT_THAT(inspect.output, HasSubstr("obj_000077"));
+  EXPECT_THAT(inspect.output, HasSubstr("templates       12"));
+  const cv::Mat image = cv::imread(sheet);
+  ASSERT_FALSE(image.empty()) << "no contact sheet at " << sheet;
+  EXPECT_EQ(image.cols, 3 * 128);
+  EXPECT_EQ(image.rows, 3 * 128);
+}
+
+TEST(Tools, BuildTemplatesReadsBopSymmetries) {
+  const std::string dir = test::TempDir("tools_symmetries");
+  const std::string mesh = dir + "/box.ply";
+  WriteCheckerBoxPly(mesh);
+  // A 180 deg turn about z (6 digits, as BOP stores it; translation in mm) and a continuous
+  // symmetry about x through (0, 0, 10 mm).
+  std::ofstream(dir + "/models_info.json")
+      << R"({"77": {"diameter": 107.7, "symmetries_discrete": [[-1, 0.000001, 0, 0.5, )"
+      << R"(-0.000001, -1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]], "symmetries_continuous": )"
+      << R"([{"axis": [1, 0, 0], "offset": [0, 0, 10]}]}})";
+  const std::string cache = dir + "/obj_000077.g6dcache";
+  const RunResult build = RunCommand(
+      kBuildTemplates + " --mesh " + mesh + " --units mm --object-id obj_000077 --out " + cache +
+      " --views 3 --inplane 1 --models-info " + dir + "/models_info.json --continuous-steps 4");
+  ASSERT_EQ(build.exit_code, 0) << build.output;
+  const TemplateBank bank = ReadTemplateCache(cache);
+  ASSERT_EQ(bank.symmetries.size(), 1u + 3u);
+  EXPECT_NEAR(bank.symmetries[0].translation().x(), 0.0005, 1e-12);  // mm -> m
+  EXPECT_NEAR(bank.symmetries[0].linear().determinant(), 1.0, 1e-12);
+  // The continuous samples keep the axis through the offset fixed.
+  const Eigen::Vector3d on_axis(0.02, 0.0, 0.01);
+  for (size_t i = 1; i < 4; ++i) {
+    EXPECT_LT((bank.symmetries[i] * on_axis - on_axis).norm(), 1e-12);
+  }
+}
+
+TEST(Tools, BuildTemplatesReportsErrors) {
+  const std::string dir = test::TempDir("tools_errors");
+  const std::string missing = dir + "/no_such_mesh.ply";
+  const RunResult no_mesh = RunCommand(kBuildTemplates + " --mesh " + missing +
+                                       " --units mm --object-id x --out " + dir + "/x.g6dcache");
+  EXPECT_NE(no_mesh.exit_code, 0);
+  EXPECT_THAT(no_mesh.output, HasSubstr(missing));
+  EXPECT_FALSE(std::filesystem::exists(dir + "/x.g6dcache"));
+
+  const std::string mesh = dir + "/box.ply";
+  WriteCheckerBoxPly(mesh);
+  const RunResult bad_views =
+      RunCommand(kBuildTemplates + " --mesh " + mesh + " --units mm --object-id x --out " + dir +
+                 "/x.g6dcache --views 10");
+  EXPECT_NE(bad_views.exit_code, 0);
+  EXPECT_THAT(bad_views.output, HasSubstr("--views 10"));
+
+  const RunResult bad_units =
+      RunCommand(kBuildTemplates + " --mesh " + mesh + " --units inch --object-id x --out " + dir +
+                 "/x.g6dcache");
+  EXPECT_NE(bad_units.exit_code, 0);
+}
+
+TEST(Tools, InspectRefusesABrokenCache) {
+  const std::string dir = test::TempDir("tools_inspect_broken");
+  const std::string path = dir + "/broken.g6dcache";
+  std::ofstream(path) << "definitely not a cache";
+  const RunResult inspect = RunCommand(kInspect + " " + path);
+  EXPECT_NE(inspect.exit_code, 0);
+  EXPECT_THAT(inspect.output, HasSubstr("bad magic"));
+}
+
+}  // namespace
+}  // namespace g6d
