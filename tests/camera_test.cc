@@ -11,6 +11,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "test_meshes.h"
+
+
 namespace g6d {
 namespace {
 
@@ -18,16 +21,7 @@ using ::testing::HasSubstr;
 using ::testing::IsEmpty;
 
 // A VGA camera like the LM-O Kinect.
-Camera MakeCamera() {
-  Camera camera;
-  camera.fx = 572.4114;
-  camera.fy = 573.57043;
-  camera.cx = 325.2611;
-  camera.cy = 242.04899;
-  camera.width = 640;
-  camera.height = 480;
-  return camera;
-}
+Camera MakeCamera() { return test::LmoCamera(); }
 
 // Random points in front of the camera, roughly inside its view, fixed seed.
 std::vector<Eigen::Vector3d> RandomPointsInCam(int count, uint64_t seed) {

@@ -1,0 +1,72 @@
+#pragma once
+/// @file test_meshes.h
+/// Small meshes and the LM-O camera shared by the renderer and geometry tests.
+
+#include <cmath>
+
+#include "core/camera.h"
+#include "mesh/mesh.h"
+
+namespace g6d::test {
+
+/// The LM-O camera (camera.json): 640x480.
+inline Camera LmoCamera() {
+  Camera camera;
+  camera.fx = 572.4114;
+  camera.fy = 573.57043;
+  camera.cx = 325.2611;
+  camera.cy = 242.04899;
+  camera.width = 640;
+  camera.height = 480;
+  return camera;
+}
+
+// Axis-aligned cube centred at the origin, counter-clockwise faces seen from outside.
+inline Mesh MakeCube(double half_size_m) {
+  Mesh mesh;
+  const float h = static_cast<float>(half_size_m);
+  for (int i = 0; i < 8; ++i) {
+    mesh.vertices.emplace_back((i & 1) ? h : -h, (i & 2) ? h : -h, (i & 4) ? h : -h);
+  }
+  const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4},
+                           {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (const auto& q : quads) {
+    mesh.faces.emplace_back(q[0], q[1], q[2]);
+    mesh.faces.emplace_back(q[0], q[2], q[3]);
+  }
+  return mesh;
+}
+
+// UV sphere centred at the origin with outward counter-clockwise faces and vertex normals.
+inline Mesh MakeUvSphere(double radius_m, int stacks, int slices) {
+  Mesh mesh;
+  mesh.vertices.emplace_back(0.0f, 0.0f, 1.0f);
+  for (int i = 1; i < stacks; ++i) {
+    const double theta = M_PI * i / stacks;
+    for (int j = 0; j < slices; ++j) {
+      const double phi = 2.0 * M_PI * j / slices;
+      mesh.vertices.emplace_back(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi),
+                                 std::cos(theta));
+    }
+  }
+  const int south = static_cast<int>(mesh.vertices.size());
+  mesh.vertices.emplace_back(0.0f, 0.0f, -1.0f);
+  auto ring = [&](int i, int j) { return 1 + (i - 1) * slices + (j % slices); };
+  for (int j = 0; j < slices; ++j) mesh.faces.emplace_back(0, ring(1, j), ring(1, j + 1));
+  for (int i = 1; i + 1 < stacks; ++i) {
+    for (int j = 0; j < slices; ++j) {
+      mesh.faces.emplace_back(ring(i, j), ring(i + 1, j), ring(i + 1, j + 1));
+      mesh.faces.emplace_back(ring(i, j), ring(i + 1, j + 1), ring(i, j + 1));
+    }
+  }
+  for (int j = 0; j < slices; ++j) {
+    mesh.faces.emplace_back(south, ring(stacks - 1, j + 1), ring(stacks - 1, j));
+  }
+  for (auto& v : mesh.vertices) {
+    mesh.normals.push_back(v.normalized());
+    v = v.normalized() * static_cast<float>(radius_m);
+  }
+  return mesh;
+}
+
+}  // namespace g6d::test
