@@ -27,16 +27,8 @@ constexpr int kTargetFaces = 4000;
 constexpr int kCropSide = 128;
 const int kLmoObjectIds[] = {1, 5, 6, 8, 9, 10, 11, 12};
 
-Camera LmoCamera() {
-  Camera camera;
-  camera.fx = 572.4114;
-  camera.fy = 573.57043;
-  camera.cx = 325.2611;
-  camera.cy = 242.04899;
-  camera.width = 640;
-  camera.height = 480;
-  return camera;
-}
+// The LM-O camera (camera.json).
+Camera LmoCamera() { return Camera{572.4114, 573.57043, 325.2611, 242.04899, 640, 480}; }
 
 // Views of one object: 64 seeded random rotations at 0.8 m. Cycling through different
 // poses matters: repeating one pose lets the branch predictor learn that pose's pixel

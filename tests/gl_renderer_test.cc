@@ -19,15 +19,18 @@
 
 #include "core/error.h"
 #include "render/raster.h"
+#include "core/se3.h"
 #include "test_meshes.h"
 #include "test_util.h"
 
 namespace g6d {
 namespace {
 
+using test::AxisAngle;
 using test::LmoCamera;
 using test::MakeCube;
 using test::MakeUvSphere;
+using test::MaskIoU;
 
 // Square [-half, half]^2 in the plane z = 0 (normal +z), two triangles, with OBJ-style
 // texture coordinates (u right along +x, v up along +y).
@@ -38,23 +41,6 @@ Mesh MakeQuad(double half_size_m) {
   mesh.uvs = {{0.0f, 0.0f}, {1.0f, 0.0f}, {1.0f, 1.0f}, {0.0f, 1.0f}};
   mesh.faces = {{0, 1, 2}, {0, 2, 3}};
   return mesh;
-}
-
-Eigen::Isometry3d Pose(const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation) {
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.linear() = rotation;
-  pose.translation() = translation;
-  return pose;
-}
-
-Eigen::Matrix3d AxisAngle(double angle_rad, const Eigen::Vector3d& axis) {
-  return Eigen::AngleAxisd(angle_rad, axis.normalized()).toRotationMatrix();
-}
-
-double MaskIoU(const cv::Mat& a, const cv::Mat& b) {
-  const double intersection = cv::countNonZero(a & b);
-  const double union_count = cv::countNonZero(a | b);
-  return union_count > 0 ? intersection / union_count : 1.0;
 }
 
 // Agreement of the OSMesa and CPU renderings of one pose.
@@ -87,7 +73,7 @@ Eigen::Isometry3d RandomPose(std::mt19937_64* rng, double min_distance_m, double
   const Eigen::Quaterniond q(normal(*rng), normal(*rng), normal(*rng), normal(*rng));
   const double z = min_distance_m + (max_distance_m - min_distance_m) * 0.5 * (1.0 + uniform(*rng));
   const Eigen::Vector3d t(0.25 * z * uniform(*rng), 0.2 * z * uniform(*rng), z);
-  return Pose(q.normalized().toRotationMatrix(), t);
+  return MakePose(q.normalized().toRotationMatrix(), t);
 }
 
 TEST(GlRenderer, CubeFaceOnDepthIsExactlyThePlane) {
@@ -95,7 +81,7 @@ TEST(GlRenderer, CubeFaceOnDepthIsExactlyThePlane) {
   const double half = 0.05;
   const Eigen::Vector3d t(0.0123, -0.0071, 0.5);
   GlRenderer renderer(MakeCube(half));
-  const GlImage image = renderer.Render(camera, Pose(Eigen::Matrix3d::Identity(), t));
+  const GlImage image = renderer.Render(camera, MakePose(Eigen::Matrix3d::Identity(), t));
   ASSERT_EQ(image.depth.type(), CV_32F);
   ASSERT_EQ(image.rgb.type(), CV_8UC3);
   ASSERT_EQ(image.mask.type(), CV_8U);
@@ -123,7 +109,7 @@ TEST(GlRenderer, TiltedPlaneDepthMatchesRayPlaneIntersection) {
   const Eigen::Matrix3d rotation = AxisAngle(0.9, Eigen::Vector3d(1.0, 0.4, 0.2));
   const Eigen::Vector3d t(-0.02, 0.015, 0.8);
   GlRenderer renderer(MakeQuad(0.1));
-  const GlImage image = renderer.Render(camera, Pose(rotation, t));
+  const GlImage image = renderer.Render(camera, MakePose(rotation, t));
   ASSERT_GT(cv::countNonZero(image.mask), 1000);
   const Eigen::Vector3d normal = rotation.col(2);
   double max_error = 0.0;
@@ -143,7 +129,7 @@ TEST(GlRenderer, ImageRowZeroIsTheTop) {
   const Camera camera = LmoCamera();
   GlRenderer renderer(MakeCube(0.02));
   const GlImage image =
-      renderer.Render(camera, Pose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(-0.1, -0.1, 0.6)));
+      renderer.Render(camera, MakePose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(-0.1, -0.1, 0.6)));
   const cv::Rect box = cv::boundingRect(image.mask);
   EXPECT_LT(box.y + box.height, camera.height / 2);
   EXPECT_LT(box.x + box.width, camera.width / 2);
@@ -157,7 +143,7 @@ TEST(GlRenderer, ShadesVertexColoursAndGrayWithTheHeadlight) {
   options.default_gray = 0.6f;
   Mesh cube = MakeCube(0.05);
   // Face-on (|n . view| ~ 1 at the centre): gray * (ambient + diffuse).
-  const Eigen::Isometry3d pose = Pose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 0.5));
+  const Eigen::Isometry3d pose = MakePose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 0.5));
   const cv::Point centre(325, 242);
   {
     GlRenderer renderer(cube, options);
@@ -173,7 +159,7 @@ TEST(GlRenderer, ShadesVertexColoursAndGrayWithTheHeadlight) {
   EXPECT_NEAR(rgb[2], 0, 1.0);
   // A face seen at a grazing angle is darker, never below the ambient term.
   const GlImage tilted = renderer.Render(
-      camera, Pose(AxisAngle(1.3, Eigen::Vector3d(0, 1, 0)), Eigen::Vector3d(0, 0, 0.5)));
+      camera, MakePose(AxisAngle(1.3, Eigen::Vector3d(0, 1, 0)), Eigen::Vector3d(0, 0, 0.5)));
   EXPECT_EQ(cv::countNonZero((tilted.mask == 0) & (tilted.depth > 0)), 0);
   cv::Mat red;
   cv::extractChannel(tilted.rgb, red, 0);
@@ -195,7 +181,7 @@ TEST(GlRenderer, TextureFollowsObjVUp) {
   GlRenderer renderer(quad, options);
   const Camera camera = LmoCamera();
   const GlImage image = renderer.Render(
-      camera, Pose(AxisAngle(M_PI, Eigen::Vector3d::UnitX()), Eigen::Vector3d(0, 0, 0.5)));
+      camera, MakePose(AxisAngle(M_PI, Eigen::Vector3d::UnitX()), Eigen::Vector3d(0, 0, 0.5)));
   const cv::Rect box = cv::boundingRect(image.mask);
   ASSERT_GT(box.area(), 1000);
   const cv::Vec3b top = image.rgb.at<cv::Vec3b>(box.y + box.height / 4, box.x + box.width / 2);
@@ -226,7 +212,7 @@ TEST(GlRenderer, AgreesWithRasterizerOnCroppedAndScaledCameras) {
   const Camera camera = LmoCamera();
   const Mesh sphere = MakeUvSphere(0.05, 32, 64);
   const Eigen::Isometry3d pose =
-      Pose(AxisAngle(0.4, Eigen::Vector3d(1, 0, 1)), Eigen::Vector3d(0.03, -0.02, 0.6));
+      MakePose(AxisAngle(0.4, Eigen::Vector3d(1, 0, 1)), Eigen::Vector3d(0.03, -0.02, 0.6));
   GlRenderer renderer(sphere);
   RasterImage cpu;
   for (const Camera& view : {camera.Cropped(300, 190, 128, 128), camera.Scaled(0.37)}) {
@@ -240,7 +226,7 @@ TEST(GlRenderer, AgreesWithRasterizerOnCroppedAndScaledCameras) {
 TEST(GlRenderer, OneRendererPerThread) {
   const Camera camera = LmoCamera();
   const Mesh sphere = MakeUvSphere(0.05, 16, 32);
-  const Eigen::Isometry3d pose = Pose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 0.7));
+  const Eigen::Isometry3d pose = MakePose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 0.7));
   GlImage images[2];
   std::vector<std::thread> threads;
   for (int i = 0; i < 2; ++i) {
@@ -349,7 +335,7 @@ TEST(GlRenderer, ReproducesLmoGroundTruthMasks) {
     rotation << r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8];
     GlRenderer renderer(LoadMesh(LmoModelPath(obj_id), Units::kMillimetres));
     const GlImage image =
-        renderer.Render(camera, Pose(rotation, Eigen::Vector3d(t[0], t[1], t[2]) * 1e-3));
+        renderer.Render(camera, MakePose(rotation, Eigen::Vector3d(t[0], t[1], t[2]) * 1e-3));
     char mask_path[96];
     std::snprintf(mask_path, sizeof(mask_path), "lmo/test/000002/mask/%06d_%06zu.png",
                   std::stoi(im_id_text), gt_index);

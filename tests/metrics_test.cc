@@ -222,16 +222,7 @@ TEST(ComputeMssd, EmptyInputsThrow) {
   EXPECT_THROW(ComputeMssd(kGt, kGt, RandomPoints(3, 5), {}), Error);
 }
 
-Camera TestCamera() {
-  Camera camera;
-  camera.fx = 500.0;
-  camera.fy = 500.0;
-  camera.cx = 320.0;
-  camera.cy = 240.0;
-  camera.width = 640;
-  camera.height = 480;
-  return camera;
-}
+Camera TestCamera() { return Camera{500.0, 500.0, 320.0, 240.0, 640, 480}; }
 
 TEST(ComputeMspd, LateralShiftOfPlanarObjectIsKnownPixels) {
   // Object points in the plane z = 1 m; a 1 cm shift along x moves all of them by

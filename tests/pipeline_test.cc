@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "core/se3.h"
+#include "eval/metrics.h"
 #include "mesh/mesh.h"
 #include "synthetic_scene.h"
 
@@ -33,12 +34,6 @@ class PipelineTest : public ::testing::Test {
 Mesh* PipelineTest::mesh_ = nullptr;
 TemplateBank* PipelineTest::bank_ = nullptr;
 
-double AddError(const Mesh& mesh, const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  double sum = 0.0;
-  for (const Eigen::Vector3f& v : mesh.vertices) sum += (a * v.cast<double>() - b * v.cast<double>()).norm();
-  return sum / static_cast<double>(mesh.vertices.size());
-}
-
 Frame MakeFrame(const test::SyntheticView& view) {
   Frame frame;
   frame.camera = kCamera;
@@ -61,7 +56,7 @@ TEST_F(PipelineTest, RecallOnRandomPosesWithNoiseAndOcclusion) {
     options.occlusion = trial % 4 == 3 ? 0.25 : 0.0;
     const test::SyntheticView view = test::RenderSyntheticView(&renderer, *mesh_, kCamera, truth, options);
     const PoseResult result = EstimatePose(MakeFrame(view), {"box", view.mask}, *bank_, SolverOptions(), &pool);
-    const double error = result.success ? AddError(*mesh_, result.cam_from_object, truth) : 1e9;
+    const double error = result.success ? ComputeAdd(result.cam_from_object, truth, mesh_->vertices) : 1e9;
     if (error < 0.1 * diameter) ++correct;
     std::cout << "trial " << trial << ": " << (result.success ? "ok" : result.message) << " ADD "
               << error * 1000 << " mm, S " << result.score << ", " << result.stages.total_ms << " ms\n";

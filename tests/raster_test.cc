@@ -17,15 +17,18 @@
 #include <vector>
 
 #include "core/error.h"
+#include "core/se3.h"
 #include "test_meshes.h"
 #include "test_util.h"
 
 namespace g6d {
 namespace {
 
+using test::AxisAngle;
 using test::LmoCamera;
 using test::MakeCube;
 using test::MakeUvSphere;
+using test::MaskIoU;
 
 // Square [-half, half]^2 in the plane z = 0 split into n x n cells of two triangles,
 // normal +z. `jitter` moves interior vertices in the plane by up to that fraction of a cell.
@@ -61,23 +64,6 @@ Mesh MakeGrid(double half_size_m, int n, double jitter = 0.0, uint64_t seed = 7)
   return mesh;
 }
 
-Eigen::Isometry3d Pose(const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation) {
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.linear() = rotation;
-  pose.translation() = translation;
-  return pose;
-}
-
-Eigen::Matrix3d AxisAngle(double angle_rad, const Eigen::Vector3d& axis) {
-  return Eigen::AngleAxisd(angle_rad, axis.normalized()).toRotationMatrix();
-}
-
-double MaskIoU(const cv::Mat& a, const cv::Mat& b) {
-  const double intersection = cv::countNonZero(a & b);
-  const double union_count = cv::countNonZero(a | b);
-  return union_count > 0 ? intersection / union_count : 1.0;
-}
-
 // z of the camera-frame plane (normal n through point p) on the ray through pixel (u, v).
 double RayPlaneDepth(const Camera& camera, int u, int v, const Eigen::Vector3d& normal,
                      const Eigen::Vector3d& point) {
@@ -90,7 +76,7 @@ TEST(Rasterize, CubeFaceOnDepthIsExactlyThePlane) {
   const double half = 0.05;
   const Eigen::Vector3d t(0.0123, -0.0071, 0.5);
   RasterImage image;
-  Rasterize(MakeCube(half), camera, Pose(Eigen::Matrix3d::Identity(), t), {}, &image);
+  Rasterize(MakeCube(half), camera, MakePose(Eigen::Matrix3d::Identity(), t), {}, &image);
 
   // The face z = t.z - half is seen face-on; count the pixel centres inside its projection.
   const double z_front = t.z() - half;
@@ -115,7 +101,7 @@ TEST(Rasterize, TiltedPlaneDepthMatchesRayPlaneIntersection) {
   const Eigen::Matrix3d rotation = AxisAngle(0.9, Eigen::Vector3d(1.0, 0.4, 0.2));
   const Eigen::Vector3d t(-0.02, 0.015, 0.8);
   RasterImage image;
-  Rasterize(MakeGrid(0.1, 4), camera, Pose(rotation, t), {}, &image);
+  Rasterize(MakeGrid(0.1, 4), camera, MakePose(rotation, t), {}, &image);
   ASSERT_GT(image.pixel_count, 1000);
 
   const Eigen::Vector3d normal = rotation.col(2);
@@ -150,7 +136,7 @@ TEST(Rasterize, SphereSilhouetteAreaMatchesProjectedEllipse) {
   for (const Eigen::Vector3d& centre :
        {Eigen::Vector3d(0.0, 0.0, 0.6), Eigen::Vector3d(0.18, -0.12, 0.55),
         Eigen::Vector3d(-0.3, 0.2, 0.9)}) {
-    Rasterize(sphere, camera, Pose(AxisAngle(0.3, Eigen::Vector3d(1, 2, 3)), centre), {}, &image);
+    Rasterize(sphere, camera, MakePose(AxisAngle(0.3, Eigen::Vector3d(1, 2, 3)), centre), {}, &image);
     const double expected = ProjectedSphereArea(camera, centre, radius);
     EXPECT_NEAR(image.pixel_count / expected, 1.0, 0.01)
         << "centre " << centre.transpose() << ": " << image.pixel_count << " px vs " << expected;
@@ -161,7 +147,7 @@ TEST(Rasterize, FaceIdsAreValidAndMatchTheirPlanes) {
   const Camera camera = LmoCamera();
   const Mesh sphere = MakeUvSphere(0.06, 24, 48);
   const Eigen::Isometry3d pose =
-      Pose(AxisAngle(1.1, Eigen::Vector3d(0.3, -1, 0.5)), Eigen::Vector3d(0.03, 0.02, 0.7));
+      MakePose(AxisAngle(1.1, Eigen::Vector3d(0.3, -1, 0.5)), Eigen::Vector3d(0.03, 0.02, 0.7));
   RasterImage image;
   Rasterize(sphere, camera, pose, {}, &image);
   ASSERT_EQ(image.face_id.type(), CV_32S);
@@ -195,7 +181,7 @@ TEST(Rasterize, CroppedCameraEqualsCropOfFullRender) {
   const Camera camera = LmoCamera();
   const Mesh sphere = MakeUvSphere(0.05, 32, 64);
   const Eigen::Isometry3d pose =
-      Pose(AxisAngle(0.7, Eigen::Vector3d(1, 1, 0)), Eigen::Vector3d(0.04, -0.03, 0.65));
+      MakePose(AxisAngle(0.7, Eigen::Vector3d(1, 1, 0)), Eigen::Vector3d(0.04, -0.03, 0.65));
   RasterImage full, crop;
   Rasterize(sphere, camera, pose, {}, &full);
   const cv::Rect roi(300, 170, 128, 128);
@@ -209,7 +195,7 @@ TEST(Rasterize, CroppedCameraEqualsCropOfFullRender) {
 TEST(Rasterize, ScaledCameraApproximatesResizedFullRender) {
   const Camera camera = LmoCamera();
   const Mesh sphere = MakeUvSphere(0.05, 48, 96);
-  const Eigen::Isometry3d pose = Pose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 0.6));
+  const Eigen::Isometry3d pose = MakePose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 0.6));
   RasterImage full, half;
   Rasterize(sphere, camera, pose, {}, &full);
   const Camera scaled = camera.Scaled(0.5);
@@ -245,7 +231,7 @@ TEST(Rasterize, SharedEdgesThroughPixelCentresLeaveNoCracksNorOverlaps) {
   camera.width = camera.height = 64;
   const int n = 10;
   const Mesh grid = MakeGrid(0.1, n);  // 0.02 m cells = 4 px
-  const Eigen::Isometry3d pose = Pose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 1));
+  const Eigen::Isometry3d pose = MakePose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 1));
 
   RasterImage single;
   cv::Mat counts = cv::Mat::zeros(camera.height, camera.width, CV_32S);
@@ -278,7 +264,7 @@ TEST(Rasterize, FinelyTessellatedTiltedPlaneHasNoCracks) {
   const Eigen::Matrix3d rotation = AxisAngle(0.5, Eigen::Vector3d(0.2, 1, 0.1));
   const Eigen::Vector3d t(0.01, -0.02, 0.9);
   RasterImage image;
-  Rasterize(grid, camera, Pose(rotation, t), {}, &image);
+  Rasterize(grid, camera, MakePose(rotation, t), {}, &image);
   // Every pixel whose ray hits the square at least 0.5 mm inside its border is covered.
   const Eigen::Vector3d normal = rotation.col(2);
   int inside = 0, holes = 0;
@@ -300,7 +286,7 @@ TEST(Rasterize, BackfaceCullingKeepsTheFrontOfAClosedMesh) {
   const Camera camera = LmoCamera();
   const Mesh cube = MakeCube(0.04);
   const Eigen::Isometry3d pose =
-      Pose(AxisAngle(0.8, Eigen::Vector3d(1, -2, 0.5)), Eigen::Vector3d(0.0, 0.01, 0.5));
+      MakePose(AxisAngle(0.8, Eigen::Vector3d(1, -2, 0.5)), Eigen::Vector3d(0.0, 0.01, 0.5));
   RasterOptions culled;
   culled.cull_backfaces = true;
   RasterImage all, front;
@@ -336,12 +322,12 @@ TEST(Rasterize, ReusesOutputBuffersAndClearsThem) {
   const Camera camera = LmoCamera().Cropped(250, 170, 128, 128);
   const Mesh sphere = MakeUvSphere(0.05, 16, 32);
   RasterImage image;
-  Rasterize(sphere, camera, Pose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 0.5)), {},
+  Rasterize(sphere, camera, MakePose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 0.5)), {},
             &image);
   const uchar* depth_data = image.depth.data;
   const uchar* face_data = image.face_id.data;
   const int first_count = image.pixel_count;
-  Rasterize(sphere, camera, Pose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 1.0)), {},
+  Rasterize(sphere, camera, MakePose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 1.0)), {},
             &image);
   EXPECT_EQ(image.depth.data, depth_data);
   EXPECT_EQ(image.face_id.data, face_data);
@@ -351,7 +337,7 @@ TEST(Rasterize, ReusesOutputBuffersAndClearsThem) {
 
   RasterOptions no_face_id;
   no_face_id.want_face_id = false;
-  Rasterize(sphere, camera, Pose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 0.5)),
+  Rasterize(sphere, camera, MakePose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 0.5)),
             no_face_id, &image);
   EXPECT_TRUE(image.face_id.empty());
   EXPECT_EQ(image.pixel_count, first_count);
@@ -359,7 +345,7 @@ TEST(Rasterize, ReusesOutputBuffersAndClearsThem) {
 
 TEST(Rasterize, ThrowsOnBadInput) {
   const Mesh cube = MakeCube(0.05);
-  const Eigen::Isometry3d pose = Pose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 0.5));
+  const Eigen::Isometry3d pose = MakePose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0, 0, 0.5));
   RasterImage image;
   Camera bad_camera = LmoCamera();
   bad_camera.fx = 0.0;
@@ -409,7 +395,7 @@ TEST(Rasterize, ReproducesLmoGroundTruthMasks) {
       Eigen::Matrix3d rotation;
       rotation << r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8];
       const Eigen::Isometry3d pose =
-          Pose(rotation, Eigen::Vector3d(t[0], t[1], t[2]) * 1e-3);  // mm -> m
+          MakePose(rotation, Eigen::Vector3d(t[0], t[1], t[2]) * 1e-3);  // mm -> m
       Rasterize(meshes[obj_id], camera, pose, {}, &image);
 
       char mask_path[96];

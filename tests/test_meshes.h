@@ -1,8 +1,11 @@
 #pragma once
 /// @file test_meshes.h
-/// Small meshes and the LM-O camera shared by the renderer and geometry tests.
+/// Small meshes, the LM-O camera and mask/rotation helpers shared by the renderer and geometry tests.
 
 #include <cmath>
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
 
 #include "core/camera.h"
 #include "mesh/mesh.h"
@@ -10,15 +13,18 @@
 namespace g6d::test {
 
 /// The LM-O camera (camera.json): 640x480.
-inline Camera LmoCamera() {
-  Camera camera;
-  camera.fx = 572.4114;
-  camera.fy = 573.57043;
-  camera.cx = 325.2611;
-  camera.cy = 242.04899;
-  camera.width = 640;
-  camera.height = 480;
-  return camera;
+inline Camera LmoCamera() { return Camera{572.4114, 573.57043, 325.2611, 242.04899, 640, 480}; }
+
+/// Rotation of `angle_rad` about `axis` (need not be unit length).
+inline Eigen::Matrix3d AxisAngle(double angle_rad, const Eigen::Vector3d& axis) {
+  return Eigen::AngleAxisd(angle_rad, axis.normalized()).toRotationMatrix();
+}
+
+/// IoU of two 0/255 masks; 1 when both are empty.
+inline double MaskIoU(const cv::Mat& a, const cv::Mat& b) {
+  const double intersection = cv::countNonZero(a & b);
+  const double union_count = cv::countNonZero(a | b);
+  return union_count > 0 ? intersection / union_count : 1.0;
 }
 
 // Axis-aligned cube centred at the origin, counter-clockwise faces seen from outside.

@@ -27,12 +27,27 @@ PointCloudIndex::PointCloudIndex(std::vector<Eigen::Vector3d> points)
 PointCloudIndex::~PointCloudIndex() = default;
 
 int PointCloudIndex::Nearest(const Eigen::Vector3d& query, double* squared_distance) const {
-  if (points_.empty()) return -1;
-  std::vector<int> indices(1);
-  std::vector<double> distances(1);
-  if (impl_->tree.SearchKNN(query, 1, indices, distances) < 1) return -1;
-  *squared_distance = distances[0];
+  std::vector<int> indices;
+  std::vector<double> squared;
+  NearestAll({query}, &indices, &squared);
+  *squared_distance = squared[0];
   return indices[0];
+}
+
+void PointCloudIndex::NearestAll(const std::vector<Eigen::Vector3d>& queries, std::vector<int>* indices,
+                                 std::vector<double>* squared_distances) const {
+  indices->assign(queries.size(), -1);
+  squared_distances->assign(queries.size(), 0.0);
+  if (points_.empty()) return;
+  // Open3D's KNN search fills vectors; reuse one pair for all queries instead of two heap
+  // allocations per query.
+  std::vector<int> one_index(1);
+  std::vector<double> one_distance(1);
+  for (size_t i = 0; i < queries.size(); ++i) {
+    if (impl_->tree.SearchKNN(queries[i], 1, one_index, one_distance) < 1) continue;
+    (*indices)[i] = one_index[0];
+    (*squared_distances)[i] = one_distance[0];
+  }
 }
 
 std::string IcpOptions::Check() const {
@@ -93,10 +108,8 @@ void RefineByTrimmedIcp(const IcpOptions& options, const std::vector<Eigen::Vect
   std::vector<size_t> order(n);
   std::vector<Eigen::Vector3d> kept_source, kept_target;
   for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
-    for (size_t i = 0; i < n; ++i) {
-      moved[i] = pose * source_in_object[i];
-      nearest[i] = target.Nearest(moved[i], &squared[i]);
-    }
+    for (size_t i = 0; i < n; ++i) moved[i] = pose * source_in_object[i];
+    target.NearestAll(moved, &nearest, &squared);
     std::iota(order.begin(), order.end(), size_t{0});
     // Trimming: the closest ρ fraction, then the r_max cutoff. Stable on ties so the
     // result does not depend on anything but the data.

@@ -27,6 +27,9 @@ class PointCloudIndex {
   const std::vector<Eigen::Vector3d>& points() const { return points_; }
   /// Index of the nearest point to `query` and its squared distance; -1 when empty.
   int Nearest(const Eigen::Vector3d& query, double* squared_distance) const;
+  /// Nearest() for every query (one result buffer for all; the ICP inner loop).
+  void NearestAll(const std::vector<Eigen::Vector3d>& queries, std::vector<int>* indices,
+                  std::vector<double>* squared_distances) const;
 
  private:
   struct Impl;
