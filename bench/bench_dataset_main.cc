@@ -7,10 +7,13 @@
 #include <string>
 #include <vector>
 
+#include <sys/resource.h>
+
 #include <CLI/CLI.hpp>
 
 #include "core/error.h"
 #include "core/executor.h"
+#include "core/se3.h"
 #include "core/timer.h"
 #include "eval/bop.h"
 #include "eval/bop_csv.h"
@@ -38,6 +41,8 @@ struct ObjectData {
 struct Tally {
   int total = 0;
   int correct[5] = {0, 0, 0, 0, 0};  // seed, pnp, observable, icp, final
+  int oracle_pnp = 0, oracle_kept = 0;  // some PnP pose / some kept pose is correct
+  int oracle_pnp_rot = 0, oracle_kept_rot = 0;  // some PnP / kept pose within 15 deg of GT rotation
 };
 
 }  // namespace
@@ -45,8 +50,9 @@ struct Tally {
 int main(int argc, char** argv) {
   CLI::App app{"g6d-bench-dataset: solver accuracy and latency on a BOP dataset (GT visible masks)"};
   std::string dataset_dir, caches_dir, targets_file, out_csv;
-  int hypotheses = 18, threads = 2, limit = 0;
-  bool no_mhpo = false, no_icp = false;
+  int hypotheses = 18, threads = 2, limit = 0, every = 1, pnp_iterations = 0;
+  bool no_mhpo = false, no_icp = false, prosac = false, no_lo = false, oracle = false;
+  std::string records_csv;
   app.add_option("--dataset", dataset_dir, "BOP dataset folder (models/, test/, ...)")->required();
   app.add_option("--caches", caches_dir, "folder with <obj_XXXXXX>.g6dcache files")->required();
   app.add_option("--targets", targets_file, "targets json (default: the dataset's test_targets_bop19.json)");
@@ -56,6 +62,14 @@ int main(int argc, char** argv) {
   app.add_flag("--no-mhpo", no_mhpo, "skip MHPO (ablation)");
   app.add_flag("--no-icp", no_icp, "skip ICP (ablation)");
   app.add_option("--out", out_csv, "BOP results CSV to write");
+  app.add_option("--every", every, "run every N-th target instance only (quick looks)")->capture_default_str();
+  app.add_option("--records", records_csv, "per-instance CSV (S_A, confidence, error, correct) for calibration");
+  app.add_option("--pnp-iterations", pnp_iterations, "MSAC-PnP iterations at most (0 = default)");
+  app.add_flag("--pnp-prosac", prosac, "PROSAC sampling ordered by Hamming distance (opencv solver)");
+  std::string pnp_solver = "depth";
+  app.add_option("--pnp-solver", pnp_solver, "MSAC-PnP minimal solver: depth | p3p | opencv")->capture_default_str();
+  app.add_flag("--pnp-no-lo", no_lo, "no USAC local optimization");
+  app.add_flag("--oracle", oracle, "also report whether any PnP / kept hypothesis was correct (slow)");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -66,6 +80,21 @@ int main(int argc, char** argv) {
     options.num_hypotheses = hypotheses;
     options.run_mhpo = !no_mhpo;
     options.run_icp = !no_icp;
+    if (pnp_iterations > 0) options.pnp.max_iterations = pnp_iterations;
+    options.pnp.progressive_sampling = prosac;
+    if (pnp_solver == "depth") options.pnp.minimal_solver = g6d::PnpMinimalSolver::kDepthRigid;
+    else if (pnp_solver == "p3p") options.pnp.minimal_solver = g6d::PnpMinimalSolver::kP3p;
+    else if (pnp_solver == "opencv") options.pnp.minimal_solver = g6d::PnpMinimalSolver::kOpenCvUsac;
+    else G6D_THROW("--pnp-solver must be depth, p3p or opencv (got '" << pnp_solver << "')");
+    options.pnp.local_optimization = !no_lo;
+    if (every < 1) G6D_THROW("--every must be >= 1 (got " << every << ")");
+    std::FILE* records = nullptr;
+    if (!records_csv.empty()) {
+      records = std::fopen(records_csv.c_str(), "w");
+      if (!records) G6D_THROW("cannot write '" << records_csv << "'");
+      std::fprintf(records, "scene_id,im_id,obj_id,gt_idx,success,score,confidence,iou,depth_residual,error_d,correct,total_ms\n");
+    }
+    int seen = 0;
     g6d::ThreadPool pool(std::max(1, threads));
 
     std::map<int, ObjectData> objects;
@@ -102,6 +131,7 @@ int main(int argc, char** argv) {
         const g6d::BopGtInstance& gt = bop_frame.gt[gt_idx];
         if (gt.obj_id != target.obj_id) continue;
         ++instances;
+        if (seen++ % every != 0) continue;
         const g6d::Instance instance{object.bank.object_id, g6d::LoadBopMaskVisib(scene, target.im_id, static_cast<int>(gt_idx))};
         const g6d::PoseResult result = g6d::EstimatePose(frame, instance, object.bank, options, &pool);
         const g6d::StageReport& s = result.stages;
@@ -119,6 +149,24 @@ int main(int argc, char** argv) {
             tally.correct[k] += g6d::IsAddCorrect(e, object.diameter_m);
             if (k == 4) final_error = e;
           }
+          auto any_correct = [&](const std::vector<Eigen::Isometry3d>& poses) {
+            for (const Eigen::Isometry3d& pose : poses) {
+              if (g6d::IsAddCorrect(error(pose), object.diameter_m)) return 1;
+            }
+            return 0;
+          };
+          auto any_rotation = [&](const std::vector<Eigen::Isometry3d>& poses) {
+            for (const Eigen::Isometry3d& pose : poses) {
+              if (g6d::RotationErrorDeg(pose.linear(), gt.cam_from_object.linear()) < 15.0) return 1;
+            }
+            return 0;
+          };
+          if (oracle) {
+            tally.oracle_pnp += any_correct(s.pnp_poses);
+            tally.oracle_kept += any_correct(s.kept_poses);
+            tally.oracle_pnp_rot += any_rotation(s.pnp_poses);
+            tally.oracle_kept_rot += any_rotation(s.kept_poses);
+          }
           g6d::BopEstimate estimate;
           estimate.scene_id = target.scene_id;
           estimate.im_id = target.im_id;
@@ -126,6 +174,13 @@ int main(int argc, char** argv) {
           estimate.score = result.confidence;
           estimate.cam_from_object = result.cam_from_object;
           estimates.push_back(estimate);
+        }
+        if (records) {
+          std::fprintf(records, "%d,%d,%d,%zu,%d,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%.3f\n", target.scene_id, target.im_id,
+                       target.obj_id, gt_idx, result.success ? 1 : 0, result.score, result.confidence,
+                       result.details.iou, result.details.depth_residual,
+                       result.success ? final_error / object.diameter_m : -1.0,
+                       result.success && g6d::IsAddCorrect(final_error, object.diameter_m) ? 1 : 0, s.total_ms);
         }
         image_time_s[{target.scene_id, target.im_id}] += s.total_ms / 1000.0;
         times["features"].push_back(s.features_ms);
@@ -143,6 +198,7 @@ int main(int argc, char** argv) {
       }
       if (limit > 0 && done >= limit) break;
     }
+    if (records) std::fclose(records);
     for (g6d::BopEstimate& e : estimates) e.time_s = image_time_s[{e.scene_id, e.im_id}];
     if (!out_csv.empty()) g6d::WriteBopCsv(out_csv, estimates);
 
@@ -160,7 +216,22 @@ int main(int argc, char** argv) {
     }
     std::printf("| **all** | %d", all.total);
     for (int k = 0; k < 5; ++k) std::printf(" | %.1f", 100.0 * all.correct[k] / std::max(1, all.total));
-    std::printf(" |\n\nlatency per instance (ms)\n| stage | p50 | p95 |\n|---|---|---|\n");
+    if (oracle) {
+      int pnp = 0, kept = 0;
+      for (const auto& [obj_id, tally] : tallies) {
+        pnp += tally.oracle_pnp;
+        kept += tally.oracle_kept;
+        std::printf(" |\noracle %s: some PnP pose correct %d/%d, some kept pose correct %d/%d; rotation < 15 deg: PnP %d, kept %d",
+                    g6d::BopObjectName(obj_id).c_str(), tally.oracle_pnp, tally.total, tally.oracle_kept, tally.total,
+                    tally.oracle_pnp_rot, tally.oracle_kept_rot);
+      }
+      std::printf(" |\noracle all: some PnP pose correct %.1f%%, some kept pose correct %.1f%%", 100.0 * pnp / std::max(1, all.total),
+                  100.0 * kept / std::max(1, all.total));
+    }
+    struct rusage usage;
+    getrusage(RUSAGE_SELF, &usage);
+    std::printf(" |\n\npeak resident memory: %.0f MB\n", usage.ru_maxrss / 1024.0);
+    std::printf("\nlatency per instance (ms)\n| stage | p50 | p95 |\n|---|---|---|\n");
     for (const char* stage : {"features", "match", "pnp", "observable", "icp", "mhpo", "total"}) {
       std::printf("| %s | %.1f | %.1f |\n", stage, Percentile(times[stage], 0.5), Percentile(times[stage], 0.95));
     }

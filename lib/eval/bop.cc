@@ -290,6 +290,25 @@ const BopObjectInfo& BopDataset::Object(int obj_id) const {
   return it->second;
 }
 
+std::vector<BopTarget> LoadBopTargets(const std::string& path) {
+  if (!fs::exists(path)) G6D_THROW("BOP targets file " << path << " does not exist");
+  const Json json = ReadJson(path);
+  const Where where{path, ""};
+  if (!json.is_array()) G6D_THROW(where << ": expected a list, got " << TypeName(json));
+  std::vector<BopTarget> targets;
+  targets.reserve(json.size());
+  for (size_t i = 0; i < json.size(); ++i) {
+    const Where item{path, "[" + std::to_string(i) + "]"};
+    BopTarget target;
+    target.scene_id = GetInt(Member(json[i], "scene_id", item), item.Key("scene_id"));
+    target.im_id = GetInt(Member(json[i], "im_id", item), item.Key("im_id"));
+    target.obj_id = GetInt(Member(json[i], "obj_id", item), item.Key("obj_id"));
+    target.inst_count = GetInt(Member(json[i], "inst_count", item), item.Key("inst_count"));
+    targets.push_back(target);
+  }
+  return targets;
+}
+
 BopDataset LoadBopDataset(const std::string& root, const std::string& split) {
   const fs::path root_path(root);
   if (!fs::is_directory(root_path)) G6D_THROW("BOP dataset root " << root << " is not a folder");
@@ -331,18 +350,7 @@ BopDataset LoadBopDataset(const std::string& root, const std::string& split) {
   const fs::path targets_path = root_path / "test_targets_bop19.json";
   if (fs::exists(targets_path)) {
     dataset.has_targets = true;
-    const Json json = ReadJson(targets_path);
-    const Where where{targets_path.string(), ""};
-    if (!json.is_array()) G6D_THROW(where << ": expected a list, got " << TypeName(json));
-    for (size_t i = 0; i < json.size(); ++i) {
-      const Where item{targets_path.string(), "[" + std::to_string(i) + "]"};
-      BopTarget target;
-      target.scene_id = GetInt(Member(json[i], "scene_id", item), item.Key("scene_id"));
-      target.im_id = GetInt(Member(json[i], "im_id", item), item.Key("im_id"));
-      target.obj_id = GetInt(Member(json[i], "obj_id", item), item.Key("obj_id"));
-      target.inst_count = GetInt(Member(json[i], "inst_count", item), item.Key("inst_count"));
-      dataset.targets.push_back(target);
-    }
+    dataset.targets = LoadBopTargets(targets_path.string());
   }
 
   const fs::path split_dir = root_path / split;

@@ -75,6 +75,11 @@ struct BopTarget {
   int inst_count = 0;
 };
 
+/// Reads a BOP'19 targets file (a JSON list of {scene_id, im_id, obj_id, inst_count}), e.g.
+/// <root>/test_targets_bop19.json. Throws g6d::Error naming the file and the entry when it
+/// is missing, malformed or a field is missing or not an integer.
+std::vector<BopTarget> LoadBopTargets(const std::string& path);
+
 /// What LoadBopDataset() finds at the dataset root (scenes themselves are loaded lazily
 /// with LoadBopScene()).
 struct BopDataset {

@@ -10,10 +10,8 @@
 /// same as under `cam_from_object`; the identity must be part of the list (the
 /// `SymmetryTransforms()` output always starts with it).
 ///
-/// TODO(eval): VSD (Visible Surface Discrepancy, BOP'19 eq. (1)) needs depth rendering of
-/// the model under the estimated and the GT pose plus the test depth image; it is a later
-/// task and belongs here once a renderer is available (lib/render). It is deliberately not
-/// stubbed: callers must not get a fake VSD.
+/// VSD (Visible Surface Discrepancy), which needs depth rendering, is in eval/vsd.h; the
+/// whole BOP'19 evaluation (matching, recalls, AR) in eval/bop_eval.h.
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>

@@ -75,6 +75,8 @@ void MatchTemplates(const MatchOptions& options, const std::vector<Feature>& que
         set.quality += 1.0 - static_cast<double>(best) / options.hamming_threshold;  // Q_j, eq. (4)
         set.image_points.emplace_back(query[i].xy.x() + kOpenCvToImage, query[i].xy.y() + kOpenCvToImage);
         set.object_points.push_back(tmpl.points[static_cast<size_t>(best_index)].cast<double>());
+        set.distances.push_back(best);
+        set.query_indices.push_back(static_cast<int>(i));
       }
     }
   });

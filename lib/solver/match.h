@@ -31,6 +31,8 @@ struct CorrespondenceSet {
   double quality = 0.0;                       ///< Q_j
   std::vector<Eigen::Vector2d> image_points;  ///< u_i^q, image coordinates under K (centre +0.5)
   std::vector<Eigen::Vector3d> object_points; ///< X_{jπ(i)}^o, object frame, metres
+  std::vector<int> distances;                 ///< δ_i, Hamming distance of each correspondence
+  std::vector<int> query_indices;             ///< index of the query feature of each correspondence
 };
 
 /// Counts and timing of the matching stage.

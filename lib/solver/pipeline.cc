@@ -174,9 +174,20 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
     // ---- stage 2: MSAC-PnP per correspondence set
     watch.Restart();
     const double projected_size_px = std::max(box.width, box.height);
+    std::vector<Eigen::Vector2d> query_image_points(query.size());
+    for (size_t i = 0; i < query.size(); ++i) {
+      query_image_points[i] = query[i].xy.cast<double>() + Eigen::Vector2d::Constant(kOpenCvToImage);
+    }
+    const std::vector<Eigen::Vector3d> query_points_in_cam =
+        BackprojectKeypoints(frame.camera, depth, mask, query_image_points);
+    PnpPrior prior;
+    prior.z_m = z_m;
+    prior.diameter_m = bank.diameter_m;
+    prior.centre_in_object = bank.bounding_box.center();
+    prior.query_points_in_cam = &query_points_in_cam;
     std::vector<PnpResult> pnp(sets.size());
     executor->ParallelFor(static_cast<int>(sets.size()), [&](int i) {
-      EstimatePnp(options.pnp, sets[static_cast<size_t>(i)], frame.camera, projected_size_px,
+      EstimatePnp(options.pnp, sets[static_cast<size_t>(i)], frame.camera, projected_size_px, prior,
                   &pnp[static_cast<size_t>(i)]);
     });
     std::vector<Eigen::Isometry3d> hypotheses;
@@ -206,6 +217,8 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
     stages.kept_hypotheses = static_cast<int>(kept.size());
     stages.best_e_obs = observable[static_cast<size_t>(order.front())].e_obs;
     stages.observable_pose = kept.front();
+    stages.pnp_poses = hypotheses;
+    stages.kept_poses = kept;
     stages.observable_ms = watch.ElapsedMs();
 
     // ---- stage 4: trimmed ICP on depth, every kept hypothesis independently

@@ -94,6 +94,9 @@ struct StageReport {
   Eigen::Isometry3d pnp_pose = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d observable_pose = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d icp_pose = Eigen::Isometry3d::Identity();
+  /// Every valid MSAC-PnP pose (in template rank order) and the N_H kept after observable
+  /// selection (best E_obs first), for oracle analyses ("was a good hypothesis there?").
+  std::vector<Eigen::Isometry3d> pnp_poses, kept_poses;
   MhpoReport mhpo;
 };
 
