@@ -69,6 +69,11 @@ int main(int argc, char** argv) {
   std::string pnp_solver = "depth";
   app.add_option("--pnp-solver", pnp_solver, "MSAC-PnP minimal solver: depth | p3p | opencv")->capture_default_str();
   app.add_flag("--pnp-no-lo", no_lo, "no USAC local optimization");
+  double icp_min_step = 0.0;
+  int icp_iterations = 0, source_points = 0;
+  app.add_option("--icp-min-step", icp_min_step, "ICP stops when points move less than this, metres (0 = default)");
+  app.add_option("--icp-iterations", icp_iterations, "ICP iterations at most (0 = default)");
+  app.add_option("--icp-source-points", source_points, "rendered ICP source points at most (0 = default)");
   app.add_flag("--oracle", oracle, "also report whether any PnP / kept hypothesis was correct (slow)");
   CLI11_PARSE(app, argc, argv);
 
@@ -82,6 +87,9 @@ int main(int argc, char** argv) {
     options.run_icp = !no_icp;
     if (pnp_iterations > 0) options.pnp.max_iterations = pnp_iterations;
     options.pnp.progressive_sampling = prosac;
+    if (icp_min_step > 0) options.icp.min_step_m = icp_min_step;
+    if (icp_iterations > 0) options.icp.max_iterations = icp_iterations;
+    if (source_points > 0) options.max_source_points = source_points;
     if (pnp_solver == "depth") options.pnp.minimal_solver = g6d::PnpMinimalSolver::kDepthRigid;
     else if (pnp_solver == "p3p") options.pnp.minimal_solver = g6d::PnpMinimalSolver::kP3p;
     else if (pnp_solver == "opencv") options.pnp.minimal_solver = g6d::PnpMinimalSolver::kOpenCvUsac;

@@ -43,7 +43,7 @@ struct IcpOptions {
   double kappa_d = 0.35;         ///< κ_d: r_max relative to the object diameter
   double r0_m = 0.01;            ///< r_0: minimum residual cutoff, metres
   int max_iterations = 60;       ///< iterations at most (point-to-point converges slowly along smooth surfaces)
-  double min_step_m = 2e-6;      ///< stop when the update moves points less than this, metres
+  double min_step_m = 1e-5;      ///< stop when the update moves points less than this, metres (10 µm)
   int min_correspondences = 12;  ///< fewer kept correspondences = failure
 
   std::string Check() const;
