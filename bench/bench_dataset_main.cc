@@ -74,6 +74,8 @@ int main(int argc, char** argv) {
   app.add_option("--icp-min-step", icp_min_step, "ICP stops when points move less than this, metres (0 = default)");
   app.add_option("--icp-iterations", icp_iterations, "ICP iterations at most (0 = default)");
   app.add_option("--icp-source-points", source_points, "rendered ICP source points at most (0 = default)");
+  bool allow_border = false;
+  app.add_flag("--allow-border-masks", allow_border, "solve masks that touch the image border too (refused by default)");
   app.add_flag("--oracle", oracle, "also report whether any PnP / kept hypothesis was correct (slow)");
   CLI11_PARSE(app, argc, argv);
 
@@ -87,6 +89,7 @@ int main(int argc, char** argv) {
     options.run_icp = !no_icp;
     if (pnp_iterations > 0) options.pnp.max_iterations = pnp_iterations;
     options.pnp.progressive_sampling = prosac;
+    options.reject_border_masks = !allow_border;
     if (icp_min_step > 0) options.icp.min_step_m = icp_min_step;
     if (icp_iterations > 0) options.icp.max_iterations = icp_iterations;
     if (source_points > 0) options.max_source_points = source_points;
