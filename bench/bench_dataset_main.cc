@@ -74,7 +74,8 @@ int main(int argc, char** argv) {
   app.add_option("--icp-min-step", icp_min_step, "ICP stops when points move less than this, metres (0 = default)");
   app.add_option("--icp-iterations", icp_iterations, "ICP iterations at most (0 = default)");
   app.add_option("--icp-source-points", source_points, "rendered ICP source points at most (0 = default)");
-  bool allow_border = false;
+  bool allow_border = false, post_refine = false;
+  app.add_flag("--post-refine", post_refine, "enable the optional post-refinement (stage 6)");
   app.add_flag("--allow-border-masks", allow_border, "solve masks that touch the image border too (refused by default)");
   app.add_flag("--oracle", oracle, "also report whether any PnP / kept hypothesis was correct (slow)");
   CLI11_PARSE(app, argc, argv);
@@ -90,6 +91,7 @@ int main(int argc, char** argv) {
     if (pnp_iterations > 0) options.pnp.max_iterations = pnp_iterations;
     options.pnp.progressive_sampling = prosac;
     options.reject_border_masks = !allow_border;
+    options.post_refine = post_refine;
     if (icp_min_step > 0) options.icp.min_step_m = icp_min_step;
     if (icp_iterations > 0) options.icp.max_iterations = icp_iterations;
     if (source_points > 0) options.max_source_points = source_points;
@@ -200,6 +202,7 @@ int main(int argc, char** argv) {
         times["observable"].push_back(s.observable_ms);
         times["icp"].push_back(s.icp_ms);
         times["mhpo"].push_back(s.mhpo_ms);
+        times["post_refine"].push_back(s.post_refine_ms);
         times["total"].push_back(s.total_ms);
         ++done;
         std::fprintf(stderr, "[%d] scene %d im %d obj %d: %s S %.3f ADD%s %.1f mm (%.2f d) %.0f ms\n", done,
@@ -243,7 +246,7 @@ int main(int argc, char** argv) {
     getrusage(RUSAGE_SELF, &usage);
     std::printf(" |\n\npeak resident memory: %.0f MB\n", usage.ru_maxrss / 1024.0);
     std::printf("\nlatency per instance (ms)\n| stage | p50 | p95 |\n|---|---|---|\n");
-    for (const char* stage : {"features", "match", "pnp", "observable", "icp", "mhpo", "total"}) {
+    for (const char* stage : {"features", "match", "pnp", "observable", "icp", "mhpo", "post_refine", "total"}) {
       std::printf("| %s | %.1f | %.1f |\n", stage, Percentile(times[stage], 0.5), Percentile(times[stage], 0.95));
     }
     return 0;

@@ -81,6 +81,35 @@ TEST_F(PipelineTest, SameResultWithOneAndTwoThreads) {
   EXPECT_EQ(a.stages.pnp_hypotheses, b.stages.pnp_hypotheses);
 }
 
+TEST_F(PipelineTest, PostRefinementNeverRaisesTheScore) {
+  GlRenderer renderer(*mesh_);
+  std::mt19937_64 rng(11);
+  ThreadPool pool(2);
+  SolverOptions plain;
+  plain.num_hypotheses = 2;  // weak settings, so stage 6 has something to do
+  SolverOptions post = plain;
+  post.post_refine = true;
+  post.post_refine_trigger_s = 0.0;  // always run it
+  for (int trial = 0; trial < 3; ++trial) {
+    const Eigen::Isometry3d truth = test::RandomPose(kCamera, 0.6, 0.8, &rng);
+    test::SyntheticOptions view_options;
+    view_options.seed = 100 + static_cast<uint64_t>(trial);
+    view_options.occlusion = 0.2;
+    const test::SyntheticView view = test::RenderSyntheticView(&renderer, *mesh_, kCamera, truth, view_options);
+    const PoseResult a = EstimatePose(MakeFrame(view), {"box", view.mask}, *bank_, plain, &pool);
+    const PoseResult b = EstimatePose(MakeFrame(view), {"box", view.mask}, *bank_, post, &pool);
+    ASSERT_TRUE(a.success && b.success) << a.message << " / " << b.message;
+    EXPECT_TRUE(b.stages.post_refine_ran);
+    EXPECT_FALSE(a.stages.post_refine_ran);
+    EXPECT_LE(b.score, a.score);
+    if (b.stages.post_refine_accepted) {
+      EXPECT_LT(b.score, a.score - post.post_refine_margin);
+    } else {
+      EXPECT_TRUE(a.cam_from_object.matrix() == b.cam_from_object.matrix());
+    }
+  }
+}
+
 TEST_F(PipelineTest, BadInputGivesAClearReason) {
   GlRenderer renderer(*mesh_);
   std::mt19937_64 rng(9);

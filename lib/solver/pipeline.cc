@@ -98,6 +98,31 @@ std::vector<Eigen::Vector3d> VisibleModelPoints(const Mesh& mesh, const Camera& 
   return points;
 }
 
+// Stage 6 hypotheses from T_A: its 180-degree flips about the bounding-box axes through
+// the box centre (the usual confusions of near-symmetric shapes), and each of those plus
+// T_A itself re-centred: the box centre moved onto the ray through the mask box centre,
+// at z_M plus a quarter diameter (the centre lies behind the visible surface).
+std::vector<Eigen::Isometry3d> PostRefineHypotheses(const Eigen::Isometry3d& cam_from_object, const TemplateBank& bank,
+                                                    const Camera& camera, const cv::Rect& box, double z_m) {
+  const Eigen::Vector3d centre = bank.bounding_box.center();
+  std::vector<Eigen::Isometry3d> poses = {cam_from_object};
+  for (int axis = 0; axis < 3; ++axis) {
+    Eigen::Isometry3d flip = Eigen::Isometry3d::Identity();
+    flip.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::Unit(axis)).toRotationMatrix();
+    flip.translation() = centre - flip.linear() * centre;  // about the box centre
+    poses.push_back(cam_from_object * flip);
+  }
+  const Eigen::Vector2d box_centre(box.x + 0.5 * box.width, box.y + 0.5 * box.height);
+  const Eigen::Vector3d target_centre = camera.Backproject(box_centre, z_m + 0.25 * bank.diameter_m);
+  const size_t n = poses.size();
+  for (size_t i = 0; i < n; ++i) {
+    Eigen::Isometry3d moved = poses[i];
+    moved.translation() += target_centre - poses[i] * centre;
+    poses.push_back(moved);
+  }
+  return poses;
+}
+
 }  // namespace
 
 PoseResult EstimatePose(const Frame& frame, const Instance& instance, const TemplateBank& bank,
@@ -262,6 +287,31 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
       if (stages.mhpo.early_stopped) result.termination = Termination::kEarlyStopped;
     }
     stages.mhpo_ms = watch.ElapsedMs();
+
+    // ---- stage 6 (optional): post-refinement of a poor T_A
+    if (options.post_refine && result.details.s > options.post_refine_trigger_s) {
+      watch.Restart();
+      stages.post_refine_ran = true;
+      std::vector<Eigen::Isometry3d> extra = PostRefineHypotheses(result.cam_from_object, bank, frame.camera, box, z_m);
+      executor->ParallelFor(static_cast<int>(extra.size()), [&](int k) {
+        RasterImage scratch;
+        Eigen::Isometry3d& pose = extra[static_cast<size_t>(k)];
+        const std::vector<Eigen::Vector3d> source =
+            VisibleModelPoints(bank.online_mesh, refine_grid.camera, pose, options.max_source_points, &scratch);
+        IcpReport icp_report;
+        RefineByTrimmedIcp(options.icp, source, observed_index, bank.diameter_m, &pose, &icp_report);
+      });
+      const MhpoTarget target = MakeMhpoTarget(refine_grid, z_m);
+      Eigen::Isometry3d best;
+      MhpoReport report;
+      RefineByMhpo(options.mhpo, options.score, target, bank.online_mesh, extra, executor, &best, &report);
+      if (report.success && report.best_score.s < result.details.s - options.post_refine_margin) {
+        result.cam_from_object = best;
+        result.details = report.best_score;
+        stages.post_refine_accepted = true;
+      }
+      stages.post_refine_ms = watch.ElapsedMs();
+    }
     result.score = result.details.s;
     result.confidence = ConfidenceFromScore(options, result.score);
     result.success = true;

@@ -54,6 +54,13 @@ struct SolverOptions {
   int max_source_points = 600;     ///< rendered ICP source cloud size at most
   MhpoOptions mhpo;             ///< λ_D = 0.1
   bool run_mhpo = true;         ///< stage 5 on/off (ablations)
+  /// Stage 6, optional post-refinement (off by default, as in the paper): when S_A is
+  /// above `post_refine_trigger_s`, T_A's 180-degree flips about the three bounding-box
+  /// axes and depth re-centred copies become new hypotheses for ICP and MHPO; the best is
+  /// accepted only when its S is lower than S_A by more than `post_refine_margin`.
+  bool post_refine = false;
+  double post_refine_trigger_s = 0.15;
+  double post_refine_margin = 0.02;
   int min_valid_depth_pixels = 30;  ///< fewer valid depth pixels in the mask = bad input
   bool reject_border_masks = true;  ///< a mask touching the image border is refused
   /// Confidence = 1 / (1 + exp(confidence_slope * (S_A − confidence_midpoint))): the
@@ -91,7 +98,9 @@ struct StageReport {
   double best_e_obs = 1.0;         ///< best E_obs among PnP poses
   double best_s_after_icp = 2.0;   ///< best S after ICP
   double prepare_ms = 0.0, features_ms = 0.0, match_ms = 0.0, pnp_ms = 0.0,
-         observable_ms = 0.0, icp_ms = 0.0, mhpo_ms = 0.0, total_ms = 0.0;
+         observable_ms = 0.0, icp_ms = 0.0, mhpo_ms = 0.0, post_refine_ms = 0.0, total_ms = 0.0;
+  bool post_refine_ran = false;       ///< stage 6 was triggered
+  bool post_refine_accepted = false;  ///< and replaced T_A
   /// Best pose after each stage, for per-stage recall (seed, pnp, observable, icp, mhpo);
   /// identity where a stage did not run.
   Eigen::Isometry3d seed_pose = Eigen::Isometry3d::Identity();
