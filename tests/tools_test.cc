@@ -12,6 +12,9 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
 #include "templates/cache.h"
 #include "test_util.h"
 
@@ -22,6 +25,7 @@ using ::testing::HasSubstr;
 
 const std::string kBuildTemplates = G6D_BINARY_DIR "/tools/g6d-build-templates";
 const std::string kInspect = G6D_BINARY_DIR "/tools/g6d-inspect";
+const std::string kSolve = G6D_BINARY_DIR "/tools/g6d-solve";
 
 struct RunResult {
   int exit_code = -1;
@@ -179,6 +183,49 @@ TEST(Tools, InspectRefusesABrokenCache) {
   const RunResult inspect = RunCommand(kInspect + " " + path);
   EXPECT_NE(inspect.exit_code, 0);
   EXPECT_THAT(inspect.output, HasSubstr("bad magic"));
+}
+
+}  // namespace
+}  // namespace g6d
+
+namespace g6d {
+namespace {
+
+// The README's g6d-solve example on a real LM-O frame: the can (obj_000005) in scene 2,
+// image 8, GT instance 1 (t = (-35.1, 168.3, 978.2) mm in scene_gt.json).
+TEST(Tools, SolveOnAnLmoFrame) {
+  G6D_REQUIRE_SHARED_DATA("lmo/test/000002/rgb/000008.png");
+  ASSERT_TRUE(std::filesystem::exists(kSolve)) << kSolve;
+  const std::string dir = test::TempDir("tools_solve");
+  const std::string lmo = test::SharedDataPath("lmo");
+  const std::string cache = dir + "/obj_000005.g6dcache";
+  const RunResult build = RunCommand(kBuildTemplates + " --mesh " + lmo + "/models/obj_000005.ply --units mm" +
+                                     " --object-id obj_000005 --out " + cache + " --threads 2");
+  ASSERT_EQ(build.exit_code, 0) << build.output;
+  const std::string scene = lmo + "/test/000002";
+  const std::string common = kSolve + " --cache " + cache + " --rgb " + scene + "/rgb/000008.png --depth " + scene +
+                             "/depth/000008.png --depth-scale 1 --K 572.4114,573.57043,325.2611,242.04899";
+  const RunResult solve = RunCommand(common + " --mask " + scene + "/mask_visib/000008_000001.png --overlay " + dir +
+                                     "/overlay.png --json " + dir + "/pose.json");
+  ASSERT_EQ(solve.exit_code, 0) << solve.output;
+  EXPECT_THAT(solve.output, HasSubstr("S_A"));
+  EXPECT_THAT(solve.output, HasSubstr("confidence"));
+  std::ifstream json_file(dir + "/pose.json");
+  const nlohmann::json pose = nlohmann::json::parse(json_file);
+  EXPECT_TRUE(pose.at("success").get<bool>());
+  const Eigen::Vector3d t(pose.at("position_m")[0], pose.at("position_m")[1], pose.at("position_m")[2]);
+  // Within a tenth of the can's diameter (201.4 mm) of the GT translation.
+  EXPECT_LT((t - Eigen::Vector3d(-0.03507, 0.16831, 0.97816)).norm(), 0.02) << t.transpose();
+  const cv::Mat overlay = cv::imread(dir + "/overlay.png");
+  ASSERT_FALSE(overlay.empty());
+  EXPECT_EQ(overlay.cols, 640);
+
+  // An empty mask: exit code 3 and the reason.
+  const cv::Mat empty = cv::Mat::zeros(480, 640, CV_8U);
+  cv::imwrite(dir + "/empty.png", empty);
+  const RunResult bad = RunCommand(common + " --mask " + dir + "/empty.png");
+  EXPECT_EQ(bad.exit_code, 3) << bad.output;
+  EXPECT_THAT(bad.output, HasSubstr("mask is empty"));
 }
 
 }  // namespace

@@ -78,6 +78,9 @@ int main(int argc, char** argv) {
   app.add_option("--hypotheses", hypotheses, "K = N_H, hypotheses refined by ICP and MHPO")->capture_default_str();
   app.add_option("--threads", threads, "worker threads")->capture_default_str();
   app.add_flag("--no-mhpo", no_mhpo, "skip MHPO (ablation)");
+  bool post_refine = false, allow_border = false;
+  app.add_flag("--post-refine", post_refine, "optional stage 6: retry a poor pose from flipped / re-centred hypotheses");
+  app.add_flag("--allow-border-masks", allow_border, "solve a mask that touches the image border (refused by default)");
   app.add_option("--overlay", overlay_path, "write the image with the projected model contour and axes");
   app.add_option("--json", json_path, "write the result as JSON");
   CLI11_PARSE(app, argc, argv);
@@ -98,6 +101,8 @@ int main(int argc, char** argv) {
     g6d::SolverOptions options;
     options.num_hypotheses = hypotheses;
     options.run_mhpo = !no_mhpo;
+    options.post_refine = post_refine;
+    options.reject_border_masks = !allow_border;
     g6d::ThreadPool pool(std::max(1, threads));
     const g6d::PoseResult result = g6d::EstimatePose(frame, instance, bank, options, &pool);
     const g6d::StageReport& s = result.stages;
@@ -113,8 +118,9 @@ int main(int argc, char** argv) {
     std::printf("stages      features %d | sets %d (best Q %.1f) | PnP %d | kept %d (best E_obs %.3f) | ICP ok %d (best S %.3f) | MHPO best S %.3f\n",
                 s.query_features, s.correspondence_sets, s.best_quality, s.pnp_hypotheses, s.kept_hypotheses,
                 s.best_e_obs, s.icp_converged, s.best_s_after_icp, result.score);
-    std::printf("time (ms)   prepare %.1f  features %.1f  match %.1f  pnp %.1f  observable %.1f  icp %.1f  mhpo %.1f  total %.1f\n",
-                s.prepare_ms, s.features_ms, s.match_ms, s.pnp_ms, s.observable_ms, s.icp_ms, s.mhpo_ms, s.total_ms);
+    if (s.post_refine_ran) std::printf("post-refine %s\n", s.post_refine_accepted ? "accepted (lower S)" : "ran, T_A kept");
+    std::printf("time (ms)   prepare %.1f  features %.1f  match %.1f  pnp %.1f  observable %.1f  icp %.1f  mhpo %.1f  post-refine %.1f  total %.1f\n",
+                s.prepare_ms, s.features_ms, s.match_ms, s.pnp_ms, s.observable_ms, s.icp_ms, s.mhpo_ms, s.post_refine_ms, s.total_ms);
     if (!overlay_path.empty()) {
       cv::Mat overlay = bgr.clone();
       if (result.success) DrawOverlay(bank, frame.camera, result.cam_from_object, &overlay);
@@ -139,7 +145,7 @@ int main(int argc, char** argv) {
                      {"best_s_after_icp", s.best_s_after_icp}};
       j["time_ms"] = {{"prepare", s.prepare_ms}, {"features", s.features_ms}, {"match", s.match_ms},
                       {"pnp", s.pnp_ms}, {"observable", s.observable_ms}, {"icp", s.icp_ms},
-                      {"mhpo", s.mhpo_ms}, {"total", s.total_ms}};
+                      {"mhpo", s.mhpo_ms}, {"post_refine", s.post_refine_ms}, {"total", s.total_ms}};
       std::ofstream out(json_path);
       if (!out) G6D_THROW("--json: cannot write '" << json_path << "'");
       out << j.dump(2) << "\n";
