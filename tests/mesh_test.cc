@@ -14,6 +14,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/error.h"
+#include "test_meshes.h"
 #include "test_util.h"
 
 namespace g6d {
@@ -518,6 +519,33 @@ TEST(Decimate, TexturedObjWithSeamsKeepsBoxAndArea) {
   G6D_REQUIRE_SHARED_DATA(kYcbvFoamBrick);
   const Mesh mesh = LoadMesh(test::SharedDataPath(kYcbvFoamBrick), Units::kMetres);
   ExpectFaithfulDecimation(mesh, 1000, "061_foam_brick");
+}
+
+}  // namespace
+}  // namespace g6d
+
+namespace g6d {
+namespace {
+
+TEST(IsClosedAndOriented, CubeOpenCubeAndFlippedFace) {
+  const Mesh cube = test::MakeCube(0.05);
+  EXPECT_TRUE(IsClosedAndOriented(cube));
+  Mesh open = cube;
+  open.faces.pop_back();
+  EXPECT_FALSE(IsClosedAndOriented(open));
+  Mesh flipped = cube;
+  std::swap(flipped.faces[0][1], flipped.faces[0][2]);
+  EXPECT_FALSE(IsClosedAndOriented(flipped));
+  // Split vertices (as with UV seams) are welded by position: still closed.
+  Mesh split = cube;
+  for (Eigen::Vector3i& face : split.faces) {
+    for (int k = 0; k < 3; ++k) {
+      split.vertices.push_back(split.vertices[static_cast<size_t>(face[k])]);
+      face[k] = static_cast<int>(split.vertices.size()) - 1;
+    }
+  }
+  EXPECT_TRUE(IsClosedAndOriented(split));
+  EXPECT_FALSE(IsClosedAndOriented(Mesh()));
 }
 
 }  // namespace

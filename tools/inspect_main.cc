@@ -44,8 +44,9 @@ void PrintSummary(const g6d::TemplateBank& bank, const std::string& path) {
               box.min().x() * 1e3, box.min().y() * 1e3, box.min().z() * 1e3, box.max().x() * 1e3,
               box.max().y() * 1e3, box.max().z() * 1e3);
   std::printf("symmetries      %zu\n", bank.symmetries.size());
-  std::printf("online mesh     %zu vertices, %zu faces\n", bank.online_mesh.vertices.size(),
-              bank.online_mesh.faces.size());
+  std::printf("online mesh     %zu vertices, %zu faces, %s\n", bank.online_mesh.vertices.size(),
+              bank.online_mesh.faces.size(),
+              g6d::IsClosedAndOriented(bank.online_mesh) ? "closed and oriented" : "open or inconsistently oriented");
   const g6d::Camera& c = bank.template_camera;
   std::printf("template camera %dx%d, fx %.1f fy %.1f cx %.1f cy %.1f\n", c.width, c.height, c.fx,
               c.fy, c.cx, c.cy);

@@ -1,6 +1,7 @@
 #include "mesh/mesh.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <exception>
@@ -617,6 +618,30 @@ Mesh Decimate(const Mesh& mesh, int target_faces) {
   result.faces = simplified->triangles_;
   ComputeVertexNormals(&result);
   return result;
+}
+
+bool IsClosedAndOriented(const Mesh& mesh) {
+  if (mesh.faces.empty()) return false;
+  // Weld vertices with identical positions (split by UV seams or colours in the file).
+  std::map<std::array<float, 3>, int> welded;
+  std::vector<int> id(mesh.vertices.size());
+  for (size_t i = 0; i < mesh.vertices.size(); ++i) {
+    const std::array<float, 3> key = {mesh.vertices[i].x(), mesh.vertices[i].y(), mesh.vertices[i].z()};
+    id[i] = welded.emplace(key, static_cast<int>(welded.size())).first->second;
+  }
+  std::map<std::pair<int, int>, int> directed;
+  for (const Eigen::Vector3i& face : mesh.faces) {
+    const int a = id[static_cast<size_t>(face[0])], b = id[static_cast<size_t>(face[1])], c = id[static_cast<size_t>(face[2])];
+    if (a == b || b == c || a == c) continue;  // degenerate after welding: no area, no edges
+    for (const auto& edge : {std::make_pair(a, b), std::make_pair(b, c), std::make_pair(c, a)}) {
+      if (++directed[edge] > 1) return false;
+    }
+  }
+  for (const auto& [edge, count] : directed) {
+    const auto reverse = directed.find({edge.second, edge.first});
+    if (reverse == directed.end() || reverse->second != 1) return false;
+  }
+  return true;
 }
 
 }  // namespace g6d

@@ -39,6 +39,12 @@ struct Mesh {
   bool HasTexture() const { return !uvs.empty() && !texture.empty(); }
 };
 
+/// True when the surface is closed and consistently oriented: with vertices welded by
+/// position, every directed edge (a, b) of a face appears exactly once and its reverse
+/// (b, a) exactly once. For such a mesh seen from outside, back-face culling cannot
+/// change a rendering (the nearest surface along any ray is front-facing).
+bool IsClosedAndOriented(const Mesh& mesh);
+
 /// Loads a mesh, merging all assimp sub-meshes (with their node transforms), scaling to
 /// metres. Polygons are triangulated; points and lines are dropped. PLY vertex colours are
 /// kept (alpha dropped); an OBJ/MTL diffuse texture is read (path relative to the OBJ's
