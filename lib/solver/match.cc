@@ -35,7 +35,9 @@ inline int Distance(const Words& a, const Words& b) {
 // baseline x86-64, which has no popcount instruction, so the loop is compiled again for
 // CPUs with POPCNT / AVX2 and the best clone is picked at load time; the results are the
 // same bit for bit.
-#if defined(__x86_64__) && defined(__GNUC__)
+// Sanitizer builds skip the clones: the ifunc resolver runs before the TSan/ASan runtime
+// is initialized and crashes every binary at load time.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__SANITIZE_THREAD__) && !defined(__SANITIZE_ADDRESS__)
 __attribute__((target_clones("avx2", "popcnt", "default")))
 #endif
 void NearestDescriptors(const std::vector<Words>& query, const std::vector<Words>& candidates, int* best_distance,

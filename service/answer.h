@@ -1,0 +1,53 @@
+#pragma once
+/// @file answer.h
+/// Building the service's answers: solver results -> g6d.pose_estimate_t, and the
+/// g6d.pose_array_t of one frame (or of a frame that was refused).
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "g6d/pose_array_t.hpp"
+#include "g6d/pose_estimate_t.hpp"
+#include "g6d/rgbd_frame_t.hpp"
+#include "service/frame_codec.h"
+#include "solver/pipeline.h"
+
+namespace g6d {
+
+/// The identity of a request frame, echoed in its answer. seq = -1 when the message did
+/// not decode far enough to know it.
+struct FrameHeader {
+  int64_t utime = 0;
+  int64_t seq = -1;
+  std::string camera_id;
+  std::string source;
+  int32_t scene_id = -1;
+  int32_t image_id = -1;
+};
+
+/// The header fields of a decoded request.
+FrameHeader HeaderOf(const rgbd_frame_t& message);
+
+/// Named durations of one frame, seconds, in publication order.
+using Timings = std::vector<std::pair<std::string, double>>;
+
+/// pose_estimate_t for one solver result. Success -> STATUS_OK with message "ok";
+/// termination kBadInput -> STATUS_BAD_INPUT, kNoHypothesis (or any other failure) ->
+/// STATUS_NO_SOLUTION, kNotRun -> STATUS_INTERNAL_ERROR; the solver's message otherwise.
+/// Position in metres and quaternion (w, x, y, z) of cam_from_object; score S_A,
+/// confidence, IoU, depth residual, hypotheses kept (N_H used) and solver time.
+pose_estimate_t MakePoseEstimate(const DecodedInstance& instance, const PoseResult& result);
+
+/// An estimate that carries only a failure: identity pose, score 2, confidence 0.
+pose_estimate_t MakeFailedEstimate(const DecodedInstance& instance, int8_t status,
+                                   const std::string& message);
+
+/// The answer to one frame. `utime` is the publication time (microseconds since the
+/// epoch), `total_s` the time from receipt to publication.
+pose_array_t MakePoseArray(const FrameHeader& header, int8_t status, const std::string& message,
+                           std::vector<pose_estimate_t> estimates, const Timings& timings,
+                           double total_s, int64_t utime);
+
+}  // namespace g6d

@@ -1,0 +1,399 @@
+#include "service/service.h"
+
+#include <poll.h>
+#include <spdlog/spdlog.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <sstream>
+
+#include "core/error.h"
+
+namespace g6d {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsBetween(Clock::time_point from, Clock::time_point to) {
+  return std::chrono::duration<double>(to - from).count();
+}
+
+int64_t NowUtime() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+std::string JoinIds(const std::vector<std::string>& ids) {
+  std::string joined;
+  for (const std::string& id : ids) joined += (joined.empty() ? "" : ", ") + id;
+  return joined.empty() ? "none" : joined;
+}
+
+}  // namespace
+
+double Percentile(std::vector<double> values, double q) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  const double rank = std::ceil(std::clamp(q, 0.0, 1.0) * static_cast<double>(values.size()));
+  const size_t index = static_cast<size_t>(std::max(1.0, rank)) - 1;
+  return values[std::min(index, values.size() - 1)];
+}
+
+std::string LcmChannelRegex(const std::string& channel) {
+  static const std::string kSpecial = R"(\.^$|()[]{}*+?)";
+  std::string regex;
+  for (char c : channel) {
+    if (kSpecial.find(c) != std::string::npos) regex += '\\';
+    regex += c;
+  }
+  return regex;
+}
+
+Service::Service(const ServiceOptions& options, TemplateStore store, lcm::LCM* lcm)
+    : options_(options), store_(std::move(store)), lcm_(lcm) {
+  if (const std::string error = options_.Check(); !error.empty())
+    G6D_THROW("ServiceOptions: " << error);
+  if (lcm_ == nullptr || !lcm_->good()) G6D_THROW("Service: the LCM instance is not usable");
+  solver_options_ = options_.solver;
+  service_name_ = options_.name.empty() ? options_.input_channel : options_.name;
+  pool_ = std::make_unique<ThreadPool>(options_.workers);
+}
+
+Service::~Service() { Stop(); }
+
+void Service::Start() {
+  std::lock_guard<std::mutex> lock(lifecycle_mutex_);
+  if (started_) G6D_THROW("Service::Start: already started");
+  wake_fd_ = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+  if (wake_fd_ < 0) G6D_THROW("Service::Start: eventfd failed: " << std::strerror(errno));
+  subscription_ =
+      lcm_->subscribe(LcmChannelRegex(options_.input_channel), &Service::OnMessage, this);
+  if (subscription_ == nullptr) {
+    close(wake_fd_);
+    G6D_THROW("Service::Start: cannot subscribe to '" << options_.input_channel << "'");
+  }
+  subscription_->setQueueCapacity(options_.subscription_queue);
+  started_ = true;
+  scheduler_thread_ = std::thread([this] { SchedulerLoop(); });
+  status_thread_ = std::thread([this] { StatusLoop(); });
+  lcm_thread_ = std::thread([this] { LcmLoop(); });
+  spdlog::info("serving '{}' -> '{}' (status '{}'), {} workers, K = {}, objects: {}",
+               options_.input_channel, options_.output_channel, options_.status_channel,
+               options_.workers, solver_options_.num_hypotheses, JoinIds(store_.ObjectIds()));
+}
+
+void Service::Stop() {
+  std::lock_guard<std::mutex> lock(lifecycle_mutex_);
+  if (!started_ || stopped_) {
+    stopped_ = true;
+    return;
+  }
+  stopped_ = true;
+  // 1. Take no more frames: wake the LCM thread out of poll() and join it.
+  const uint64_t one = 1;
+  if (write(wake_fd_, &one, sizeof(one)) != static_cast<ssize_t>(sizeof(one))) {
+    spdlog::error("Service::Stop: cannot wake the LCM thread: {}", std::strerror(errno));
+  }
+  lcm_thread_.join();
+  lcm_->unsubscribe(subscription_);
+  subscription_ = nullptr;
+  // 2. Drop the waiting frame, abandon instances not yet started, let running ones end.
+  abandon_ = true;
+  if (mailbox_.Stop()) dropped_.fetch_add(1);
+  scheduler_thread_.join();
+  // 3. A last status, then the status thread.
+  {
+    std::lock_guard<std::mutex> status_lock(status_mutex_);
+    status_stop_ = true;
+  }
+  status_wake_.notify_all();
+  status_thread_.join();
+  close(wake_fd_);
+  wake_fd_ = -1;
+  const ServiceCounters counters = Counters();
+  spdlog::info("stopped: received {}, processed {}, dropped {}, stale {}, rejected {}",
+               counters.frames_received, counters.frames_processed, counters.frames_dropped,
+               counters.frames_stale, counters.frames_rejected);
+}
+
+// ---- LCM thread ---------------------------------------------------------------------------
+
+void Service::LcmLoop() {
+  const int lcm_fd = lcm_->getFileno();
+  pollfd fds[2] = {{lcm_fd, POLLIN, 0}, {wake_fd_, POLLIN, 0}};
+  for (;;) {
+    fds[0].revents = fds[1].revents = 0;
+    if (poll(fds, 2, -1) < 0) {
+      if (errno == EINTR) continue;
+      spdlog::error("LCM thread: poll failed: {}; no more frames are taken", std::strerror(errno));
+      return;
+    }
+    if (fds[1].revents != 0) return;  // Stop()
+    if (fds[0].revents & (POLLERR | POLLHUP | POLLNVAL)) {
+      spdlog::error("LCM thread: the LCM file descriptor failed; no more frames are taken");
+      return;
+    }
+    if ((fds[0].revents & POLLIN) && lcm_->handle() != 0) {
+      spdlog::warn("LCM thread: lcm handle() reported an error");
+    }
+  }
+}
+
+void Service::OnMessage(const lcm::ReceiveBuffer* buffer, const std::string& channel) {
+  const Clock::time_point received = Clock::now();
+  received_.fetch_add(1);
+  // LCM calls this from C: nothing may escape.
+  try {
+    HandleMessage(buffer->data, buffer->data_size, received);
+  } catch (const std::exception& e) {
+    try {
+      Reject(FrameHeader(), std::string("internal error while decoding: ") + e.what(), received,
+             0.0);
+    } catch (...) {
+    }
+  } catch (...) {
+  }
+}
+
+void Service::HandleMessage(const void* data, int64_t size, Clock::time_point received) {
+  FrameHeader header;
+  rgbd_frame_t message;
+  try {
+    message = DecodeRgbdFrameMessage(data, size);
+  } catch (const Error& e) {
+    PeekRgbdFrameIds(data, size, &header.utime, &header.seq);
+    Reject(header, e.what(), received, SecondsBetween(received, Clock::now()));
+    return;
+  }
+  header = HeaderOf(message);
+  if (IsStale(header.utime)) {
+    stale_.fetch_add(1);
+    return;
+  }
+  Job job;
+  job.header = header;
+  job.received = received;
+  try {
+    job.decoded = DecodeFrame(message, options_.limits);
+  } catch (const std::exception& e) {
+    Reject(header, e.what(), received, SecondsBetween(received, Clock::now()));
+    return;
+  }
+  job.queued = Clock::now();
+  job.decode_s = SecondsBetween(received, job.queued);
+  if (mailbox_.Put(std::move(job)) != LatestMailbox<Job>::PutResult::kStored) dropped_.fetch_add(1);
+}
+
+void Service::Reject(const FrameHeader& header, const std::string& reason,
+                     Clock::time_point received, double decode_s) {
+  pose_array_t answer =
+      MakePoseArray(header, pose_array_t::STATUS_BAD_FRAME, reason, {}, {{"decode", decode_s}},
+                    SecondsBetween(received, Clock::now()), NowUtime());
+  rejected_.fetch_add(1);
+  Publish(options_.output_channel, answer);
+  // At most one log line per second, so a flood of bad frames cannot flood the log.
+  std::lock_guard<std::mutex> lock(log_mutex_);
+  const Clock::time_point now = Clock::now();
+  if (now - last_reject_log_ >= std::chrono::seconds(1)) {
+    if (unlogged_rejects_ > 0) {
+      spdlog::warn("rejected frame seq {}: {} ({} more rejected since the last message)",
+                   header.seq, reason, unlogged_rejects_);
+    } else {
+      spdlog::warn("rejected frame seq {}: {}", header.seq, reason);
+    }
+    last_reject_log_ = now;
+    unlogged_rejects_ = 0;
+  } else {
+    ++unlogged_rejects_;
+  }
+}
+
+bool Service::IsStale(int64_t frame_utime) const {
+  if (options_.max_age_ms <= 0.0) return false;
+  return static_cast<double>(NowUtime() - frame_utime) > options_.max_age_ms * 1e3;
+}
+
+// ---- Scheduler ----------------------------------------------------------------------------
+
+void Service::SchedulerLoop() {
+  while (std::optional<Job> job = mailbox_.Take()) {
+    if (IsStale(job->header.utime)) {
+      stale_.fetch_add(1);
+      continue;
+    }
+    busy_ = true;
+    try {
+      ProcessJob(*job);
+    } catch (const std::exception& e) {
+      // Only publishing can get here (every instance catches its own errors).
+      spdlog::error("frame seq {}: {}", job->header.seq, e.what());
+    }
+    busy_ = false;
+  }
+}
+
+pose_estimate_t Service::SolveInstance(const Job& job, size_t index, StageReport* stages) {
+  const DecodedInstance& instance = job.decoded.instances[index];
+  if (abandon_) {
+    return MakeFailedEstimate(instance, pose_estimate_t::STATUS_INTERNAL_ERROR,
+                              "abandoned: the service is shutting down");
+  }
+  if (!instance.error.empty())
+    return MakeFailedEstimate(instance, pose_estimate_t::STATUS_BAD_INPUT, instance.error);
+  const auto bank = store_.banks.find(instance.object_id);
+  if (bank == store_.banks.end()) {
+    return MakeFailedEstimate(instance, pose_estimate_t::STATUS_UNKNOWN_OBJECT,
+                              "no template cache for object id '" + instance.object_id +
+                                  "' (loaded: " + JoinIds(store_.ObjectIds()) + ")");
+  }
+  try {
+    const PoseResult result =
+        EstimatePose(job.decoded.frame, Instance{instance.object_id, instance.mask}, *bank->second,
+                     solver_options_, pool_.get());
+    *stages = result.stages;
+    return MakePoseEstimate(instance, result);
+  } catch (const std::exception& e) {
+    return MakeFailedEstimate(instance, pose_estimate_t::STATUS_INTERNAL_ERROR,
+                              std::string("solver error: ") + e.what());
+  } catch (...) {
+    return MakeFailedEstimate(instance, pose_estimate_t::STATUS_INTERNAL_ERROR,
+                              "solver error: unknown exception");
+  }
+}
+
+void Service::ProcessJob(const Job& job) {
+  const Clock::time_point picked = Clock::now();
+  const size_t n = job.decoded.instances.size();
+  std::vector<pose_estimate_t> estimates(n);
+  std::vector<StageReport> stages(n);
+  // Instances fan out over the pool, and EstimatePose fans each one's hypotheses out
+  // over the same pool (nested ParallelFor is safe: the caller always takes part).
+  pool_->ParallelFor(static_cast<int>(n), [&](int i) {
+    estimates[i] = SolveInstance(job, static_cast<size_t>(i), &stages[i]);
+  });
+  const Clock::time_point solved = Clock::now();
+
+  // Stage times are summed over the frame's instances (CPU-side cost of each stage).
+  StageReport sum;
+  for (const StageReport& s : stages) {
+    sum.prepare_ms += s.prepare_ms;
+    sum.features_ms += s.features_ms;
+    sum.match_ms += s.match_ms;
+    sum.pnp_ms += s.pnp_ms;
+    sum.observable_ms += s.observable_ms;
+    sum.icp_ms += s.icp_ms;
+    sum.mhpo_ms += s.mhpo_ms;
+  }
+  const Timings timings = {{"queue_wait", SecondsBetween(job.queued, picked)},
+                           {"decode", job.decode_s},
+                           {"prepare", sum.prepare_ms * 1e-3},
+                           {"features", sum.features_ms * 1e-3},
+                           {"match", sum.match_ms * 1e-3},
+                           {"pnp", sum.pnp_ms * 1e-3},
+                           {"observable", sum.observable_ms * 1e-3},
+                           {"icp", sum.icp_ms * 1e-3},
+                           {"mhpo", sum.mhpo_ms * 1e-3},
+                           {"solve", SecondsBetween(picked, solved)},
+                           {"publish", 0.0}};
+  pose_array_t answer = MakePoseArray(job.header, pose_array_t::STATUS_OK, "ok",
+                                      std::move(estimates), timings, 0.0, 0);
+  // "publish" is the time spent building the answer after the solver; total_s runs from
+  // the handler's first look at the message to just before it goes on the bus.
+  const Clock::time_point now = Clock::now();
+  answer.timing_s.back() = SecondsBetween(solved, now);
+  answer.total_s = SecondsBetween(job.received, now);
+  answer.utime = NowUtime();
+  processed_.fetch_add(1);
+  RecordLatency(answer.total_s);
+  Publish(options_.output_channel, answer);
+}
+
+// ---- Status -------------------------------------------------------------------------------
+
+void Service::StatusLoop() {
+  const auto period = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(options_.status_period_s));
+  Clock::time_point next = Clock::now();
+  std::unique_lock<std::mutex> lock(status_mutex_);
+  for (;;) {
+    lock.unlock();
+    Publish(options_.status_channel, MakeStatus());
+    lock.lock();
+    next += period;
+    const Clock::time_point now = Clock::now();
+    if (next < now) next = now + period;  // fell behind: do not burst
+    if (status_wake_.wait_until(lock, next, [this] { return status_stop_; })) break;
+  }
+  lock.unlock();
+  Publish(options_.status_channel, MakeStatus());  // the final counts
+}
+
+ServiceCounters Service::Counters() const {
+  ServiceCounters counters;
+  counters.frames_received = received_.load();
+  counters.frames_processed = processed_.load();
+  counters.frames_dropped = dropped_.load();
+  counters.frames_stale = stale_.load();
+  counters.frames_rejected = rejected_.load();
+  std::vector<double> latencies;
+  {
+    std::lock_guard<std::mutex> lock(latency_mutex_);
+    latencies.assign(latencies_s_.begin(), latencies_s_.end());
+  }
+  counters.latency_p50_s = Percentile(latencies, 0.50);
+  counters.latency_p95_s = Percentile(latencies, 0.95);
+  counters.busy = busy_.load();
+  counters.mailbox_full = mailbox_.Full();
+  counters.uptime_s = SecondsBetween(start_time_, Clock::now());
+  return counters;
+}
+
+service_status_t Service::MakeStatus() const {
+  const ServiceCounters counters = Counters();
+  service_status_t status;
+  status.utime = NowUtime();
+  status.service_name = service_name_;
+  status.input_channel = options_.input_channel;
+  status.output_channel = options_.output_channel;
+  status.uptime_s = counters.uptime_s;
+  status.frames_received = counters.frames_received;
+  status.frames_processed = counters.frames_processed;
+  status.frames_dropped = counters.frames_dropped;
+  status.frames_stale = counters.frames_stale;
+  status.frames_rejected = counters.frames_rejected;
+  status.latency_p50_s = counters.latency_p50_s;
+  status.latency_p95_s = counters.latency_p95_s;
+  status.busy = counters.busy ? 1 : 0;
+  status.mailbox_full = counters.mailbox_full ? 1 : 0;
+  status.workers = options_.workers;
+  status.hypotheses = solver_options_.num_hypotheses;
+  status.objects = store_.ObjectIds();
+  status.num_objects = static_cast<int32_t>(status.objects.size());
+  return status;
+}
+
+void Service::RecordLatency(double total_s) {
+  std::lock_guard<std::mutex> lock(latency_mutex_);
+  latencies_s_.push_back(total_s);
+  while (static_cast<int>(latencies_s_.size()) > options_.latency_window) latencies_s_.pop_front();
+}
+
+// ---- Publishing ---------------------------------------------------------------------------
+// No lock of ours around lcm publish: LCM serializes publishers itself, and while the LCM
+// thread dispatches a handler it holds LCM's own lock, so a lock taken here both inside a
+// handler (Reject) and around a publish from another thread could deadlock.
+
+void Service::Publish(const std::string& channel, const pose_array_t& answer) {
+  if (lcm_->publish(channel, &answer) != 0) spdlog::warn("publish on '{}' failed", channel);
+}
+
+void Service::Publish(const std::string& channel, const service_status_t& status) {
+  if (lcm_->publish(channel, &status) != 0) spdlog::warn("publish on '{}' failed", channel);
+}
+
+}  // namespace g6d

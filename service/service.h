@@ -1,0 +1,143 @@
+#pragma once
+/// @file service.h
+/// g6d-service: answers g6d.rgbd_frame_t with g6d.pose_array_t over LCM.
+///
+/// Threads (DESIGN.md, "The service"):
+///  - the LCM thread, the only one that calls lcm->handle(): it waits (poll) on the LCM
+///    file descriptor and a wake-up descriptor, decodes and validates each frame and puts
+///    it in a one-slot latest-frame mailbox (a newer frame replaces an unprocessed one and
+///    counts as a drop). Frames that do not validate are answered at once with
+///    STATUS_BAD_FRAME from this thread and never reach the mailbox.
+///  - the scheduler thread: takes the newest frame, runs every instance through
+///    EstimatePose over the worker pool (instances and each instance's hypotheses fan out
+///    over the same pool; the scheduler thread takes part), publishes the answer.
+///  - the status thread: publishes g6d.service_status_t every status_period_s.
+///  - options.workers - 1 pool threads.
+/// Nothing polls or sleeps: every wait is on a condition variable or a file descriptor.
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <lcm/lcm-cpp.hpp>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include "core/executor.h"
+#include "g6d/pose_array_t.hpp"
+#include "g6d/service_status_t.hpp"
+#include "service/answer.h"
+#include "service/frame_codec.h"
+#include "service/mailbox.h"
+#include "service/service_options.h"
+#include "service/template_store.h"
+
+namespace g6d {
+
+/// A snapshot of the service's counters (what service_status_t carries).
+struct ServiceCounters {
+  int64_t frames_received = 0;  ///< messages on the input channel, garbage included
+  int64_t frames_processed =
+      0;                        ///< frames answered with STATUS_OK (per-instance failures included)
+  int64_t frames_dropped = 0;   ///< replaced in the mailbox, or abandoned at shutdown
+  int64_t frames_stale = 0;     ///< older than max_age_ms
+  int64_t frames_rejected = 0;  ///< answered with STATUS_BAD_FRAME
+  double latency_p50_s = 0.0;   ///< end-to-end, over the last latency_window frames
+  double latency_p95_s = 0.0;
+  bool busy = false;          ///< a frame is being solved
+  bool mailbox_full = false;  ///< a frame waits in the mailbox
+  double uptime_s = 0.0;
+};
+
+/// One pose service for one camera. Start() begins serving, Stop() (or the destructor)
+/// ends it: no new frames are taken, a frame waiting in the mailbox is dropped, instances
+/// of the current frame that have not started are abandoned (answered with
+/// STATUS_INTERNAL_ERROR "abandoned"), solver calls in flight finish, every thread joins.
+class Service {
+ public:
+  /// `lcm` must outlive the service; while started, the service's LCM thread is the only
+  /// one that may call lcm->handle() (other threads may publish and subscribe).
+  /// Throws g6d::Error when options.Check() fails or `lcm` is not good.
+  Service(const ServiceOptions& options, TemplateStore store, lcm::LCM* lcm);
+  ~Service();
+  Service(const Service&) = delete;
+  Service& operator=(const Service&) = delete;
+
+  /// Subscribes and starts the threads. Throws g6d::Error on failure; call once.
+  void Start();
+  /// Stops and joins everything (see the class comment). Idempotent; never throws.
+  void Stop();
+
+  /// The counters now.
+  ServiceCounters Counters() const;
+  /// The status message the status thread would publish now.
+  service_status_t MakeStatus() const;
+
+ private:
+  using Clock = std::chrono::steady_clock;
+
+  /// A decoded frame waiting for the scheduler.
+  struct Job {
+    FrameHeader header;
+    DecodedFrame decoded;
+    Clock::time_point received;  ///< when the handler started on the message
+    Clock::time_point queued;    ///< when it entered the mailbox
+    double decode_s = 0.0;       ///< LCM decode + validation + image decoding
+  };
+
+  void LcmLoop();
+  void SchedulerLoop();
+  void StatusLoop();
+  /// The raw LCM handler: never throws (LCM calls it from C).
+  void OnMessage(const lcm::ReceiveBuffer* buffer, const std::string& channel);
+  void HandleMessage(const void* data, int64_t size, Clock::time_point received);
+  void Reject(const FrameHeader& header, const std::string& reason, Clock::time_point received,
+              double decode_s);
+  void ProcessJob(const Job& job);
+  pose_estimate_t SolveInstance(const Job& job, size_t index, StageReport* stages);
+  bool IsStale(int64_t frame_utime) const;
+  void Publish(const std::string& channel, const pose_array_t& answer);
+  void Publish(const std::string& channel, const service_status_t& status);
+  void RecordLatency(double total_s);
+
+  const ServiceOptions options_;
+  const TemplateStore store_;
+  lcm::LCM* const lcm_;
+  SolverOptions solver_options_;
+  std::string service_name_;
+  const Clock::time_point start_time_ = Clock::now();
+
+  std::unique_ptr<ThreadPool> pool_;
+  LatestMailbox<Job> mailbox_;
+  lcm::Subscription* subscription_ = nullptr;
+  int wake_fd_ = -1;  ///< eventfd that wakes the LCM thread on Stop()
+
+  std::thread lcm_thread_, scheduler_thread_, status_thread_;
+  std::mutex lifecycle_mutex_;  ///< serializes Start() and Stop()
+  bool started_ = false, stopped_ = false;
+  std::atomic<bool> abandon_{false};  ///< instances not yet started are abandoned
+
+  std::mutex status_mutex_;
+  std::condition_variable status_wake_;
+  bool status_stop_ = false;
+
+  std::atomic<int64_t> received_{0}, processed_{0}, dropped_{0}, stale_{0}, rejected_{0};
+  std::atomic<bool> busy_{false};
+  mutable std::mutex latency_mutex_;
+  std::deque<double> latencies_s_;  ///< the last latency_window end-to-end latencies
+  std::mutex log_mutex_;
+  Clock::time_point last_reject_log_;
+  int64_t unlogged_rejects_ = 0;
+};
+
+/// Percentile `q` in [0, 1] of `values` (nearest rank); 0 for an empty set.
+double Percentile(std::vector<double> values, double q);
+
+/// Escapes regular-expression characters: LCM subscribes by regex, channels are literal.
+std::string LcmChannelRegex(const std::string& channel);
+
+}  // namespace g6d

@@ -1,0 +1,171 @@
+// g6d-service: the LCM pose service for one camera.
+//
+//   g6d-service --templates DIR [--input G6D_RGBD] [--output G6D_POSES] [--status G6D_STATUS]
+//               [--lcm-url URL] [--workers N] [--hypotheses K] [--max-age-ms MS] [--config
+//               FILE.yaml]
+//
+// Options come from the YAML file first, then from the flags given on the command line.
+// SIGINT/SIGTERM stop it: no new frames, the current one finishes or is abandoned within
+// shutdown_timeout_s, every thread joins, exit code 0.
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
+#include <condition_variable>
+#include <csignal>
+#include <cstdlib>
+#include <functional>
+#include <lcm/lcm-cpp.hpp>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "core/error.h"
+#include "service/service.h"
+#include "service/service_options.h"
+#include "service/template_store.h"
+
+namespace {
+
+// Runs `stop` and waits for it at most `timeout_s`; past that the process exits with 0
+// without joining the solver calls still running (they cannot be interrupted).
+void StopWithin(double timeout_s, const std::function<void()>& stop) {
+  std::mutex mutex;
+  std::condition_variable done_changed;
+  bool done = false;
+  std::thread watchdog([&] {
+    std::unique_lock<std::mutex> lock(mutex);
+    const auto timeout = std::chrono::duration<double>(timeout_s);
+    if (!done_changed.wait_for(lock, timeout, [&] { return done; })) {
+      spdlog::error(
+          "shutdown: solver calls still running after {} s; exiting without waiting for them",
+          timeout_s);
+      spdlog::default_logger()->flush();
+      std::_Exit(0);
+    }
+  });
+  stop();
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    done = true;
+  }
+  done_changed.notify_all();
+  watchdog.join();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  spdlog::set_default_logger(spdlog::stderr_color_mt("g6d-service"));
+  spdlog::set_pattern("[%Y-%m-%d %H:%M:%S.%e] [%n] [%l] %v");
+
+  g6d::ServiceOptions defaults;
+  CLI::App app(
+      "g6d-service: 6D object poses for g6d_rgbd_frame_t over LCM (one service per camera)");
+  std::string config_path;
+  g6d::ServiceOptions flags = defaults;
+  int hypotheses = defaults.solver.num_hypotheses;
+  app.add_option("--config", config_path, "YAML options file (flags given here override it)")
+      ->check(CLI::ExistingFile);
+  auto* templates = app.add_option("--templates", flags.templates_dir,
+                                   "directory of template caches (.g6dcache)");
+  auto* input = app.add_option("--input", flags.input_channel, "input channel (g6d_rgbd_frame_t)")
+                    ->capture_default_str();
+  auto* output =
+      app.add_option("--output", flags.output_channel, "answer channel (g6d_pose_array_t)")
+          ->capture_default_str();
+  auto* status =
+      app.add_option("--status", flags.status_channel, "status channel (g6d_service_status_t)")
+          ->capture_default_str();
+  auto* url = app.add_option("--lcm-url", flags.lcm_url,
+                             "LCM URL (default: $LCM_DEFAULT_URL or LCM's default)");
+  auto* workers =
+      app.add_option("--workers", flags.workers, "solver threads in total")->capture_default_str();
+  auto* k = app.add_option("--hypotheses", hypotheses, "K = N_H, hypotheses refined per instance")
+                ->capture_default_str();
+  auto* max_age =
+      app.add_option("--max-age-ms", flags.max_age_ms, "drop frames older than this (0 = never)")
+          ->capture_default_str();
+  auto* name = app.add_option("--name", flags.name,
+                              "service name in the status (default: the input channel)");
+  auto* queue = app.add_option("--subscription-queue", flags.subscription_queue,
+                               "LCM queue capacity of the input channel")
+                    ->capture_default_str();
+  auto* shutdown = app.add_option("--shutdown-timeout-s", flags.shutdown_timeout_s,
+                                  "bound on the shutdown wait for running solver calls")
+                       ->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  g6d::ServiceOptions options = defaults;
+  try {
+    if (!config_path.empty()) g6d::LoadServiceOptionsYaml(config_path, &options);
+  } catch (const g6d::Error& e) {
+    spdlog::critical("{}", e.what());
+    return 2;
+  }
+  // Flags given on the command line win over the file.
+  auto given = [](CLI::Option* option) { return option->count() > 0; };
+  if (given(templates)) options.templates_dir = flags.templates_dir;
+  if (given(input)) options.input_channel = flags.input_channel;
+  if (given(output)) options.output_channel = flags.output_channel;
+  if (given(status)) options.status_channel = flags.status_channel;
+  if (given(url)) options.lcm_url = flags.lcm_url;
+  if (given(workers)) options.workers = flags.workers;
+  if (given(k)) options.solver.num_hypotheses = hypotheses;
+  if (given(max_age)) options.max_age_ms = flags.max_age_ms;
+  if (given(name)) options.name = flags.name;
+  if (given(queue)) options.subscription_queue = flags.subscription_queue;
+  if (given(shutdown)) options.shutdown_timeout_s = flags.shutdown_timeout_s;
+  if (const std::string error = options.Check(); !error.empty()) {
+    spdlog::critical("bad options: {}", error);
+    return 2;
+  }
+
+  // SIGINT/SIGTERM are blocked in every thread (threads inherit the mask) and taken by
+  // sigwait() below: no handler runs in an arbitrary thread.
+  sigset_t stop_signals;
+  sigemptyset(&stop_signals);
+  sigaddset(&stop_signals, SIGINT);
+  sigaddset(&stop_signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+
+  g6d::TemplateStore store;
+  try {
+    store = g6d::LoadTemplateStore(options.templates_dir);
+  } catch (const g6d::Error& e) {
+    spdlog::critical("{}", e.what());
+    return 2;
+  }
+  for (const g6d::LoadedCache& cache : store.loaded) {
+    spdlog::info("loaded '{}' from {} ({} templates, diameter {:.1f} mm)", cache.object_id,
+                 cache.path, cache.num_templates, cache.diameter_m * 1e3);
+  }
+  for (const g6d::RefusedCache& cache : store.refused) {
+    spdlog::warn("refused {}: {}", cache.path, cache.reason);
+  }
+  if (store.banks.empty()) {
+    spdlog::warn(
+        "no template cache loaded from '{}': every instance will be answered UNKNOWN_OBJECT",
+        options.templates_dir);
+  }
+
+  lcm::LCM lcm(options.lcm_url);
+  if (!lcm.good()) {
+    spdlog::critical("cannot open LCM at '{}'",
+                     options.lcm_url.empty() ? "<default>" : options.lcm_url);
+    return 2;
+  }
+  try {
+    g6d::Service service(options, std::move(store), &lcm);
+    service.Start();
+    int signal_number = 0;
+    sigwait(&stop_signals, &signal_number);
+    spdlog::info("{}: stopping", signal_number == SIGINT ? "SIGINT" : "SIGTERM");
+    StopWithin(options.shutdown_timeout_s, [&] { service.Stop(); });
+  } catch (const std::exception& e) {
+    spdlog::critical("{}", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,156 @@
+#include "service/service_options.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <sstream>
+
+#include "core/error.h"
+
+namespace g6d {
+
+std::string ServiceOptions::Check() const {
+  std::ostringstream out;
+  if (templates_dir.empty())
+    out << "templates_dir must be set (--templates DIR)";
+  else if (input_channel.empty())
+    out << "input_channel must not be empty";
+  else if (output_channel.empty())
+    out << "output_channel must not be empty";
+  else if (status_channel.empty())
+    out << "status_channel must not be empty";
+  else if (input_channel == output_channel || input_channel == status_channel ||
+           output_channel == status_channel)
+    out << "input, output and status channels must differ (got '" << input_channel << "', '"
+        << output_channel << "', '" << status_channel << "')";
+  else if (workers < 1 || workers > 256)
+    out << "workers must be in 1..256 (got " << workers << ")";
+  else if (!std::isfinite(max_age_ms) || max_age_ms < 0.0)
+    out << "max_age_ms must be >= 0 (got " << max_age_ms << ")";
+  else if (subscription_queue < 1 || subscription_queue > 1000)
+    out << "subscription_queue must be in 1..1000 (got " << subscription_queue << ")";
+  else if (!std::isfinite(status_period_s) || status_period_s < 0.01)
+    out << "status_period_s must be >= 0.01 (got " << status_period_s << ")";
+  else if (latency_window < 1)
+    out << "latency_window must be >= 1 (got " << latency_window << ")";
+  else if (!std::isfinite(shutdown_timeout_s) || shutdown_timeout_s < 0.0)
+    out << "shutdown_timeout_s must be >= 0 (got " << shutdown_timeout_s << ")";
+  else if (const std::string error = limits.Check(); !error.empty())
+    out << "limits." << error;
+  else if (const std::string error = solver.Check(); !error.empty())
+    out << "solver." << error;
+  return out.str();
+}
+
+namespace {
+
+// Reads `node` as T or throws naming the file and key.
+template <typename T>
+T As(const YAML::Node& node, const std::string& file, const std::string& key) {
+  try {
+    return node.as<T>();
+  } catch (const YAML::Exception&) {
+    G6D_THROW(file << ": key '" << key << "' has a value of the wrong type");
+  }
+}
+
+// Applies every key of the mapping `node` through `setters`; an unknown key is an error.
+void ApplyMap(const YAML::Node& node, const std::string& file, const std::string& prefix,
+              const std::map<std::string,
+                             std::function<void(const YAML::Node&, const std::string&)>>& setters) {
+  if (!node.IsMap())
+    G6D_THROW(file << ": '" << (prefix.empty() ? "<root>" : prefix) << "' must be a mapping");
+  for (const auto& entry : node) {
+    const std::string key = entry.first.as<std::string>();
+    const std::string full_key = prefix.empty() ? key : prefix + "." + key;
+    const auto setter = setters.find(key);
+    if (setter == setters.end()) G6D_THROW(file << ": unknown key '" << full_key << "'");
+    setter->second(entry.second, full_key);
+  }
+}
+
+}  // namespace
+
+void ParseServiceOptionsYaml(const std::string& text, const std::string& name,
+                             ServiceOptions* options) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    G6D_THROW(name << ": not valid YAML: " << e.what());
+  }
+  if (root.IsNull()) return;  // an empty file changes nothing
+  ServiceOptions& o = *options;
+  using Setter = std::function<void(const YAML::Node&, const std::string&)>;
+  auto string_field = [&](std::string* field) -> Setter {
+    return [&name, field](const YAML::Node& n, const std::string& key) {
+      *field = As<std::string>(n, name, key);
+    };
+  };
+  auto int_field = [&](int* field) -> Setter {
+    return [&name, field](const YAML::Node& n, const std::string& key) {
+      *field = As<int>(n, name, key);
+    };
+  };
+  auto double_field = [&](double* field) -> Setter {
+    return [&name, field](const YAML::Node& n, const std::string& key) {
+      *field = As<double>(n, name, key);
+    };
+  };
+  auto bool_field = [&](bool* field) -> Setter {
+    return [&name, field](const YAML::Node& n, const std::string& key) {
+      *field = As<bool>(n, name, key);
+    };
+  };
+  ApplyMap(root, name, "",
+           {{"name", string_field(&o.name)},
+            {"templates", string_field(&o.templates_dir)},
+            {"input", string_field(&o.input_channel)},
+            {"output", string_field(&o.output_channel)},
+            {"status", string_field(&o.status_channel)},
+            {"lcm_url", string_field(&o.lcm_url)},
+            {"workers", int_field(&o.workers)},
+            {"hypotheses", int_field(&o.solver.num_hypotheses)},
+            {"max_age_ms", double_field(&o.max_age_ms)},
+            {"subscription_queue", int_field(&o.subscription_queue)},
+            {"status_period_s", double_field(&o.status_period_s)},
+            {"latency_window", int_field(&o.latency_window)},
+            {"shutdown_timeout_s", double_field(&o.shutdown_timeout_s)},
+            {"limits",
+             [&](const YAML::Node& n, const std::string& key) {
+               ApplyMap(n, name, key,
+                        {{"max_width", int_field(&o.limits.max_width)},
+                         {"max_height", int_field(&o.limits.max_height)},
+                         {"max_raw_bytes",
+                          [&](const YAML::Node& v, const std::string& k) {
+                            o.limits.max_raw_bytes = As<int64_t>(v, name, k);
+                          }},
+                         {"max_instances", int_field(&o.limits.max_instances)}});
+             }},
+            {"solver", [&](const YAML::Node& n, const std::string& key) {
+               ApplyMap(n, name, key,
+                        {{"max_sets", int_field(&o.solver.match.max_sets)},
+                         {"hamming_threshold", int_field(&o.solver.match.hamming_threshold)},
+                         {"min_correspondences", int_field(&o.solver.match.min_correspondences)},
+                         {"query_features", int_field(&o.solver.query_orb.max_features)},
+                         {"run_icp", bool_field(&o.solver.run_icp)},
+                         {"run_mhpo", bool_field(&o.solver.run_mhpo)},
+                         {"mhpo_max_rounds", int_field(&o.solver.mhpo.max_rounds)},
+                         {"early_stop_score", double_field(&o.solver.mhpo.early_stop_score)},
+                         {"reject_border_masks", bool_field(&o.solver.reject_border_masks)},
+                         {"min_valid_depth_pixels", int_field(&o.solver.min_valid_depth_pixels)}});
+             }}});
+}
+
+void LoadServiceOptionsYaml(const std::string& path, ServiceOptions* options) {
+  std::ifstream file(path);
+  if (!file) G6D_THROW(path << ": cannot open the options file");
+  std::stringstream text;
+  text << file.rdbuf();
+  ParseServiceOptionsYaml(text.str(), path, options);
+}
+
+}  // namespace g6d

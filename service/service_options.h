@@ -1,0 +1,68 @@
+#pragma once
+/// @file service_options.h
+/// Everything g6d-service can be told: channels, transport, threads, K, limits and the
+/// solver knobs worth changing at run time. Set from a YAML file and/or command-line flags
+/// (flags win).
+
+#include <string>
+
+#include "service/frame_codec.h"
+#include "solver/pipeline.h"
+
+namespace g6d {
+
+/// Options of one g6d-service (one camera).
+struct ServiceOptions {
+  /// Name reported in service_status_t.service_name; empty = the input channel name.
+  std::string name;
+  /// Directory holding the template caches (every regular file in it is tried).
+  std::string templates_dir;
+  std::string input_channel = "G6D_RGBD";     ///< g6d_rgbd_frame_t in
+  std::string output_channel = "G6D_POSES";   ///< g6d_pose_array_t out, one per frame
+  std::string status_channel = "G6D_STATUS";  ///< g6d_service_status_t out, every status_period_s
+  /// LCM provider URL, e.g. "udpm://239.255.76.67:7667?ttl=1&recv_buf_size=8388608";
+  /// empty = LCM's default ($LCM_DEFAULT_URL, else udpm://239.255.76.67:7667?ttl=0).
+  std::string lcm_url;
+  /// Total solver parallelism: the scheduler thread plus workers - 1 pool threads. Both
+  /// the instances of a frame and the hypotheses of each instance fan out over them.
+  int workers = 2;
+  /// Frames whose capture utime is more than this older than the wall clock on arrival
+  /// (or when the scheduler takes them) are dropped and counted as stale, milliseconds;
+  /// 0 = no age limit (e.g. for replayed logs with old timestamps).
+  double max_age_ms = 0.0;
+  /// LCM's per-subscription queue capacity for the input channel, messages. Small on
+  /// purpose: the handler only decodes, and the mailbox keeps just the latest frame.
+  int subscription_queue = 2;
+  double status_period_s = 1.0;  ///< period of service_status_t, seconds
+  int latency_window = 300;      ///< frames in the latency p50/p95 of the status
+  /// On SIGINT/SIGTERM, how long to let the solver calls in flight finish before the
+  /// process exits without joining them, seconds (a solver call cannot be interrupted;
+  /// instances not yet started are abandoned at once).
+  double shutdown_timeout_s = 1.5;
+  DecodeLimits limits;  ///< bounds on declared image sizes and instance counts
+  /// Solver options; `solver.num_hypotheses` is K (--hypotheses).
+  SolverOptions solver = [] {
+    SolverOptions options;
+    options.num_hypotheses = 4;
+    return options;
+  }();
+
+  /// Empty when valid, else names the bad field.
+  std::string Check() const;
+};
+
+/// Reads a YAML options file into `options` (keys not in the file keep their values).
+/// Keys: name, templates, input, output, status, lcm_url, workers, hypotheses, max_age_ms,
+/// subscription_queue, status_period_s, latency_window, shutdown_timeout_s,
+/// limits: {max_width, max_height, max_raw_bytes, max_instances},
+/// solver: {max_sets, hamming_threshold, min_correspondences, query_features, run_icp,
+/// run_mhpo, mhpo_max_rounds, early_stop_score, reject_border_masks,
+/// min_valid_depth_pixels}. Throws g6d::Error naming the file and key on an unknown key,
+/// a value of the wrong type or a file that does not parse.
+void LoadServiceOptionsYaml(const std::string& path, ServiceOptions* options);
+
+/// The same from YAML text (`name` is used in error messages).
+void ParseServiceOptionsYaml(const std::string& text, const std::string& name,
+                             ServiceOptions* options);
+
+}  // namespace g6d

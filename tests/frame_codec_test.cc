@@ -1,0 +1,509 @@
+// EncodeImage/DecodeImage round trips for every pixel format x compression, and every bad
+// input the service must refuse with a clear message (DecodeImage, DecodeFrame and the
+// raw LCM message check).
+#include "service/frame_codec.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <opencv2/imgproc.hpp>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "core/error.h"
+#include "g6d/pose_array_t.hpp"
+
+namespace g6d {
+namespace {
+
+constexpr int kWidth = 64;
+constexpr int kHeight = 48;
+
+// A deterministic test image of `type` with smooth structure (so JPEG stays close).
+cv::Mat MakeImage(int type, uint64_t seed) {
+  cv::Mat image(kHeight, kWidth, type);
+  std::mt19937_64 rng(seed);
+  const int offset = static_cast<int>(rng() % 50);
+  for (int v = 0; v < kHeight; ++v) {
+    for (int u = 0; u < kWidth; ++u) {
+      const int value = offset + u * 2 + v * 3;
+      switch (type) {
+        case CV_8UC3:
+          image.at<cv::Vec3b>(v, u) = cv::Vec3b(value % 256, (value * 2) % 256, 200 - v);
+          break;
+        case CV_8UC1:
+          image.at<uint8_t>(v, u) = static_cast<uint8_t>(value % 256);
+          break;
+        case CV_16UC1:
+          image.at<uint16_t>(v, u) = static_cast<uint16_t>(400 + value * 37);
+          break;
+        case CV_32FC1:
+          image.at<float>(v, u) = 0.4f + value * 0.001f;
+          break;
+      }
+    }
+  }
+  return image;
+}
+
+double MaxAbsDifference(const cv::Mat& a, const cv::Mat& b) { return cv::norm(a, b, cv::NORM_INF); }
+
+struct FormatCase {
+  int8_t format;
+  int type;
+};
+const FormatCase kFormats[] = {
+    {image_t::FORMAT_RGB8, CV_8UC3},       {image_t::FORMAT_BGR8, CV_8UC3},
+    {image_t::FORMAT_MONO8, CV_8UC1},      {image_t::FORMAT_DEPTH_U16, CV_16UC1},
+    {image_t::FORMAT_DEPTH_F32, CV_32FC1}, {image_t::FORMAT_LABEL_U8, CV_8UC1},
+    {image_t::FORMAT_LABEL_U16, CV_16UC1},
+};
+const int8_t kCompressions[] = {image_t::COMPRESSION_NONE, image_t::COMPRESSION_ZSTD,
+                                image_t::COMPRESSION_PNG, image_t::COMPRESSION_JPEG};
+
+bool Supported(int8_t format, int8_t compression) {
+  if (compression == image_t::COMPRESSION_JPEG)
+    return format == image_t::FORMAT_RGB8 || format == image_t::FORMAT_BGR8 ||
+           format == image_t::FORMAT_MONO8;
+  if (compression == image_t::COMPRESSION_PNG) return format != image_t::FORMAT_DEPTH_F32;
+  return true;
+}
+
+// Expects `fn` to throw g6d::Error whose message contains every word in `words`.
+template <typename Fn>
+void ExpectError(Fn fn, const std::vector<std::string>& words) {
+  try {
+    fn();
+    ADD_FAILURE() << "no error; expected one mentioning '" << words.front() << "'";
+  } catch (const Error& e) {
+    const std::string message = e.what();
+    for (const std::string& word : words) {
+      EXPECT_NE(message.find(word), std::string::npos) << "'" << word << "' not in: " << message;
+    }
+  }
+}
+
+TEST(EncodeImage, RoundTripEveryFormatAndCompression) {
+  for (const FormatCase& format : kFormats) {
+    for (int8_t compression : kCompressions) {
+      SCOPED_TRACE(PixelFormatName(format.format) + " / " + CompressionName(compression));
+      const cv::Mat image = MakeImage(format.type, 3);
+      if (!Supported(format.format, compression)) {
+        ExpectError([&] { EncodeImage(image, format.format, compression); }, {"EncodeImage"});
+        continue;
+      }
+      const image_t encoded = EncodeImage(image, format.format, compression);
+      EXPECT_EQ(encoded.width, kWidth);
+      EXPECT_EQ(encoded.height, kHeight);
+      EXPECT_EQ(encoded.row_stride, kWidth * BytesPerPixel(format.format));
+      EXPECT_EQ(encoded.size, static_cast<int32_t>(encoded.data.size()));
+      const cv::Mat decoded = DecodeImage(encoded, "plane");
+      ASSERT_EQ(decoded.type(), format.type);
+      ASSERT_EQ(decoded.size(), image.size());
+      if (compression == image_t::COMPRESSION_JPEG) {
+        EXPECT_LT(cv::norm(decoded, image, cv::NORM_L1) / image.total() / image.channels(), 8.0);
+      } else {
+        EXPECT_EQ(MaxAbsDifference(decoded, image), 0.0);
+      }
+    }
+  }
+}
+
+TEST(EncodeImage, PngAndJpegFilesHoldTrueColours) {
+  // A pure red RGB8 image must be red in the file, i.e. BGR (0, 0, 255) for OpenCV.
+  const cv::Mat red(8, 8, CV_8UC3, cv::Scalar(255, 0, 0));
+  for (int8_t compression : {image_t::COMPRESSION_PNG, image_t::COMPRESSION_JPEG}) {
+    const image_t encoded = EncodeImage(red, image_t::FORMAT_RGB8, compression);
+    image_t as_bgr = encoded;
+    as_bgr.pixel_format = image_t::FORMAT_BGR8;
+    const cv::Vec3b bgr = DecodeImage(as_bgr, "color").at<cv::Vec3b>(4, 4);
+    EXPECT_GT(bgr[2], 240);
+    EXPECT_LT(bgr[0], 15);
+    const cv::Vec3b rgb = DecodeImage(encoded, "color").at<cv::Vec3b>(4, 4);
+    EXPECT_GT(rgb[0], 240);
+  }
+}
+
+TEST(EncodeImage, RefusesTypeMismatchAndEmptyImage) {
+  ExpectError(
+      [] { EncodeImage(cv::Mat(4, 4, CV_8UC1), image_t::FORMAT_RGB8, image_t::COMPRESSION_NONE); },
+      {"RGB8", "CV_8UC3", "CV_8UC1"});
+  ExpectError([] { EncodeImage(cv::Mat(4, 4, CV_8UC1), 42, image_t::COMPRESSION_NONE); },
+              {"unknown pixel format"});
+  ExpectError([] { EncodeImage(cv::Mat(4, 4, CV_8UC1), image_t::FORMAT_MONO8, 9); },
+              {"unknown compression"});
+  ExpectError([] { EncodeImage(cv::Mat(), image_t::FORMAT_MONO8, image_t::COMPRESSION_NONE); },
+              {"empty"});
+}
+
+TEST(EncodeImage, NonContinuousInputIsPacked) {
+  const cv::Mat big = MakeImage(CV_16UC1, 5);
+  const cv::Mat view = big(cv::Rect(3, 2, 20, 10));
+  ASSERT_FALSE(view.isContinuous());
+  for (int8_t compression :
+       {image_t::COMPRESSION_NONE, image_t::COMPRESSION_ZSTD, image_t::COMPRESSION_PNG}) {
+    const cv::Mat decoded =
+        DecodeImage(EncodeImage(view, image_t::FORMAT_DEPTH_U16, compression), "depth");
+    EXPECT_EQ(MaxAbsDifference(decoded, view), 0.0);
+  }
+}
+
+TEST(DecodeImage, HonoursRowStride) {
+  const cv::Mat image = MakeImage(CV_16UC1, 7);
+  const int padded_stride = kWidth * 2 + 6;
+  image_t plane;
+  plane.width = kWidth;
+  plane.height = kHeight;
+  plane.row_stride = padded_stride;
+  plane.pixel_format = image_t::FORMAT_DEPTH_U16;
+  plane.compression = image_t::COMPRESSION_NONE;
+  plane.data.assign(static_cast<size_t>(padded_stride) * kHeight, 0xAB);
+  for (int v = 0; v < kHeight; ++v)
+    std::memcpy(&plane.data[v * padded_stride], image.ptr(v), kWidth * 2);
+  plane.size = static_cast<int32_t>(plane.data.size());
+  EXPECT_EQ(MaxAbsDifference(DecodeImage(plane, "depth"), image), 0.0);
+
+  // The same padded rows through zstd.
+  const image_t packed = EncodeImage(cv::Mat(kHeight, padded_stride, CV_8UC1, plane.data.data()),
+                                     image_t::FORMAT_LABEL_U8, image_t::COMPRESSION_ZSTD);
+  image_t zstd = plane;
+  zstd.compression = image_t::COMPRESSION_ZSTD;
+  zstd.data = packed.data;
+  zstd.size = packed.size;
+  EXPECT_EQ(MaxAbsDifference(DecodeImage(zstd, "depth"), image), 0.0);
+}
+
+image_t GoodPlane(int8_t compression) {
+  return EncodeImage(MakeImage(CV_8UC3, 1), image_t::FORMAT_RGB8, compression);
+}
+
+TEST(DecodeImage, RefusesPayloadSizeMismatch) {
+  image_t plane = GoodPlane(image_t::COMPRESSION_NONE);
+  plane.data.pop_back();
+  plane.size -= 1;
+  ExpectError([&] { DecodeImage(plane, "color"); }, {"color:", "payload", "expected"});
+  plane = GoodPlane(image_t::COMPRESSION_NONE);
+  plane.size += 10;  // size field disagrees with the data
+  ExpectError([&] { DecodeImage(plane, "color"); }, {"color:", "size field"});
+  plane = GoodPlane(image_t::COMPRESSION_NONE);
+  plane.height = kHeight + 1;  // declared height does not match the bytes
+  ExpectError([&] { DecodeImage(plane, "color"); }, {"color:", "does not match"});
+  plane = GoodPlane(image_t::COMPRESSION_ZSTD);
+  plane.width = kWidth / 2;
+  plane.row_stride = kWidth / 2 * 3;
+  ExpectError([&] { DecodeImage(plane, "color"); }, {"color:", "zstd", "needs"});
+  plane = GoodPlane(image_t::COMPRESSION_PNG);
+  plane.width = kWidth + 2;
+  plane.row_stride = (kWidth + 2) * 3;
+  ExpectError([&] { DecodeImage(plane, "color"); }, {"color:", "PNG file is 64x48"});
+}
+
+TEST(DecodeImage, RefusesUnknownFormatOrCompression) {
+  image_t plane = GoodPlane(image_t::COMPRESSION_NONE);
+  plane.pixel_format = 99;
+  ExpectError([&] { DecodeImage(plane, "color"); }, {"color:", "unknown pixel format 99"});
+  plane = GoodPlane(image_t::COMPRESSION_NONE);
+  plane.compression = 7;
+  ExpectError([&] { DecodeImage(plane, "color"); }, {"color:", "unknown compression 7"});
+  plane = EncodeImage(MakeImage(CV_16UC1, 1), image_t::FORMAT_DEPTH_U16, image_t::COMPRESSION_NONE);
+  plane.compression = image_t::COMPRESSION_JPEG;
+  ExpectError([&] { DecodeImage(plane, "depth"); }, {"depth:", "JPEG"});
+}
+
+TEST(DecodeImage, RefusesCorruptedPayloads) {
+  image_t zstd = GoodPlane(image_t::COMPRESSION_ZSTD);
+  for (size_t i = zstd.data.size() / 2; i < zstd.data.size(); i += 3) zstd.data[i] ^= 0x5A;
+  ExpectError([&] { DecodeImage(zstd, "color"); }, {"color:", "corrupted zstd"});
+  zstd = GoodPlane(image_t::COMPRESSION_ZSTD);
+  std::fill(zstd.data.begin(), zstd.data.begin() + 4, 0);  // magic number gone
+  ExpectError([&] { DecodeImage(zstd, "color"); }, {"color:", "corrupted zstd"});
+
+  image_t png = GoodPlane(image_t::COMPRESSION_PNG);
+  for (size_t i = png.data.size() / 2; i < png.data.size(); i += 5) png.data[i] ^= 0x33;
+  ExpectError([&] { DecodeImage(png, "color"); }, {"color:", "corrupted PNG"});
+  png = GoodPlane(image_t::COMPRESSION_PNG);
+  png.data.resize(png.data.size() / 2);
+  png.size = static_cast<int32_t>(png.data.size());
+  ExpectError([&] { DecodeImage(png, "color"); }, {"color:", "corrupted PNG"});
+
+  image_t jpeg = GoodPlane(image_t::COMPRESSION_JPEG);
+  jpeg.data.resize(jpeg.data.size() * 2 / 3);  // truncated
+  jpeg.size = static_cast<int32_t>(jpeg.data.size());
+  ExpectError([&] { DecodeImage(jpeg, "color"); }, {"color:", "corrupted JPEG"});
+  jpeg = GoodPlane(image_t::COMPRESSION_JPEG);
+  std::fill(jpeg.data.begin(), jpeg.data.begin() + 40, 0x00);  // header destroyed
+  ExpectError([&] { DecodeImage(jpeg, "color"); }, {"color:", "corrupted JPEG"});
+  jpeg.data.assign(100, 0x42);
+  jpeg.size = 100;
+  ExpectError([&] { DecodeImage(jpeg, "color"); }, {"color:", "corrupted JPEG"});
+}
+
+TEST(DecodeImage, RefusesHugeOrNonPositiveDeclaredSizes) {
+  image_t plane = GoodPlane(image_t::COMPRESSION_ZSTD);
+  plane.width = 1 << 20;
+  plane.row_stride = 3 << 20;
+  ExpectError([&] { DecodeImage(plane, "color"); }, {"color:", "too large"});
+  plane = GoodPlane(image_t::COMPRESSION_ZSTD);
+  plane.row_stride = std::numeric_limits<int32_t>::max();
+  ExpectError([&] { DecodeImage(plane, "color"); }, {"color:", "too large"});
+  plane = GoodPlane(image_t::COMPRESSION_ZSTD);
+  plane.row_stride = 5;
+  ExpectError([&] { DecodeImage(plane, "color"); }, {"color:", "row_stride"});
+  plane = GoodPlane(image_t::COMPRESSION_NONE);
+  plane.width = -4;
+  ExpectError([&] { DecodeImage(plane, "color"); }, {"color:", "> 0"});
+  plane = GoodPlane(image_t::COMPRESSION_NONE);
+  plane.height = 0;
+  ExpectError([&] { DecodeImage(plane, "color"); }, {"color:", "> 0"});
+  // A small PNG claiming a huge image is refused before the codec allocates it.
+  plane = GoodPlane(image_t::COMPRESSION_PNG);
+  plane.data[16] = 0x7F;  // IHDR width high byte
+  ExpectError([&] { DecodeImage(plane, "color"); }, {"color:", "PNG file is"});
+  DecodeLimits tight;
+  tight.max_raw_bytes = 100;
+  ExpectError([&] { DecodeImage(GoodPlane(image_t::COMPRESSION_NONE), "color", tight); },
+              {"color:", "too large"});
+}
+
+// ---- Frames ---------------------------------------------------------------------------
+
+// A valid 64x48 frame: two instances with labels 1 and 2.
+rgbd_frame_t MakeFrame() {
+  rgbd_frame_t frame;
+  frame.utime = 1;
+  frame.seq = 7;
+  frame.camera_id = "cam0";
+  frame.source = "test";
+  frame.scene_id = -1;
+  frame.image_id = -1;
+  frame.fx = 60.0;
+  frame.fy = 60.0;
+  frame.cx = 32.0;
+  frame.cy = 24.0;
+  frame.depth_scale_m = 0.001;
+  frame.color = EncodeImage(MakeImage(CV_8UC3, 1), image_t::FORMAT_BGR8, image_t::COMPRESSION_JPEG);
+  cv::Mat depth_mm(kHeight, kWidth, CV_16UC1, cv::Scalar(800));
+  frame.depth = EncodeImage(depth_mm, image_t::FORMAT_DEPTH_U16, image_t::COMPRESSION_ZSTD);
+  cv::Mat labels(kHeight, kWidth, CV_8UC1, cv::Scalar(0));
+  labels(cv::Rect(10, 10, 10, 10)).setTo(1);
+  labels(cv::Rect(30, 20, 5, 4)).setTo(2);
+  frame.labels = EncodeImage(labels, image_t::FORMAT_LABEL_U8, image_t::COMPRESSION_ZSTD);
+  for (int label : {1, 2}) {
+    instance_t instance;
+    instance.object_id = "obj_00000" + std::to_string(label);
+    instance.label = label;
+    instance.score = 0.9f;
+    instance.gt_index = label - 1;
+    frame.instances.push_back(instance);
+  }
+  frame.num_instances = 2;
+  return frame;
+}
+
+TEST(DecodeFrame, DecodesAGoodFrame) {
+  const rgbd_frame_t message = MakeFrame();
+  const DecodedFrame decoded = DecodeFrame(message);
+  EXPECT_EQ(decoded.frame.camera.width, kWidth);
+  EXPECT_EQ(decoded.frame.camera.fx, 60.0);
+  ASSERT_EQ(decoded.frame.rgb.type(), CV_8UC3);
+  ASSERT_EQ(decoded.frame.depth.type(), CV_32FC1);
+  EXPECT_NEAR(decoded.frame.depth.at<float>(5, 5), 0.8f, 1e-6);
+  ASSERT_EQ(decoded.instances.size(), 2u);
+  EXPECT_TRUE(decoded.instances[0].error.empty());
+  EXPECT_EQ(decoded.instances[0].mask_pixels, 100);
+  EXPECT_EQ(decoded.instances[1].mask_pixels, 20);
+  EXPECT_EQ(cv::countNonZero(decoded.instances[1].mask), 20);
+  EXPECT_EQ(decoded.instances[1].gt_index, 1);
+  // BGR8 JPEG colour arrives as RGB.
+  cv::Mat expected_rgb;
+  cv::cvtColor(MakeImage(CV_8UC3, 1), expected_rgb, cv::COLOR_BGR2RGB);
+  EXPECT_LT(cv::norm(decoded.frame.rgb, expected_rgb, cv::NORM_L1) / expected_rgb.total() / 3, 8.0);
+}
+
+TEST(DecodeFrame, F32DepthNaNAndNegativeBecomeZero) {
+  rgbd_frame_t message = MakeFrame();
+  cv::Mat depth(kHeight, kWidth, CV_32FC1, cv::Scalar(0.7f));
+  depth.at<float>(0, 0) = std::numeric_limits<float>::quiet_NaN();
+  depth.at<float>(0, 1) = -1.0f;
+  depth.at<float>(0, 2) = std::numeric_limits<float>::infinity();
+  message.depth = EncodeImage(depth, image_t::FORMAT_DEPTH_F32, image_t::COMPRESSION_NONE);
+  message.depth_scale_m = 0.0;  // irrelevant for F32
+  const DecodedFrame decoded = DecodeFrame(message);
+  EXPECT_EQ(decoded.frame.depth.at<float>(0, 0), 0.0f);
+  EXPECT_EQ(decoded.frame.depth.at<float>(0, 1), 0.0f);
+  EXPECT_EQ(decoded.frame.depth.at<float>(0, 2), 0.0f);
+  EXPECT_EQ(decoded.frame.depth.at<float>(0, 3), 0.7f);
+}
+
+TEST(DecodeFrame, RefusesBadIntrinsics) {
+  for (double bad : {0.0, -500.0, std::nan("")}) {
+    rgbd_frame_t message = MakeFrame();
+    message.fx = bad;
+    ExpectError([&] { DecodeFrame(message); }, {"intrinsics:", "fx"});
+    message = MakeFrame();
+    message.fy = bad;
+    ExpectError([&] { DecodeFrame(message); }, {"intrinsics:", "fy"});
+  }
+  rgbd_frame_t message = MakeFrame();
+  message.cx = std::numeric_limits<double>::infinity();
+  ExpectError([&] { DecodeFrame(message); }, {"intrinsics:", "cx"});
+  message = MakeFrame();
+  message.depth_scale_m = std::nan("");
+  ExpectError([&] { DecodeFrame(message); }, {"depth_scale_m"});
+}
+
+TEST(DecodeFrame, RefusesPlanesOfDifferentSizes) {
+  rgbd_frame_t message = MakeFrame();
+  message.depth = EncodeImage(cv::Mat(kHeight / 2, kWidth / 2, CV_16UC1, cv::Scalar(800)),
+                              image_t::FORMAT_DEPTH_U16, image_t::COMPRESSION_ZSTD);
+  ExpectError([&] { DecodeFrame(message); }, {"depth:", "differs from color"});
+  message = MakeFrame();
+  message.labels = EncodeImage(cv::Mat(kHeight, kWidth + 1, CV_8UC1, cv::Scalar(0)),
+                               image_t::FORMAT_LABEL_U8, image_t::COMPRESSION_NONE);
+  ExpectError([&] { DecodeFrame(message); }, {"labels:", "differs from color"});
+}
+
+TEST(DecodeFrame, RefusesWrongPlaneFormats) {
+  rgbd_frame_t message = MakeFrame();
+  std::swap(message.color, message.depth);
+  ExpectError([&] { DecodeFrame(message); }, {"color:", "not a colour format"});
+  message = MakeFrame();
+  message.depth.pixel_format = image_t::FORMAT_LABEL_U16;
+  ExpectError([&] { DecodeFrame(message); }, {"depth:", "not a depth format"});
+  message = MakeFrame();
+  message.labels.pixel_format = 77;
+  ExpectError([&] { DecodeFrame(message); }, {"labels:", "not a label format"});
+  message = MakeFrame();
+  message.depth.data[message.depth.data.size() / 2] ^= 0xFF;
+  ExpectError([&] { DecodeFrame(message); }, {"depth:", "corrupted zstd"});
+}
+
+TEST(DecodeFrame, RefusesLabelsNamedByNoInstance) {
+  rgbd_frame_t message = MakeFrame();
+  message.instances.pop_back();
+  message.num_instances = 1;
+  ExpectError([&] { DecodeFrame(message); },
+              {"labels:", "label 2 (20 pixels) is named by no instance"});
+}
+
+TEST(DecodeFrame, InstanceProblemsStayWithTheInstance) {
+  rgbd_frame_t message = MakeFrame();
+  instance_t missing;
+  missing.object_id = "obj_000009";
+  missing.label = 3;  // no pixel carries label 3
+  instance_t background = missing;
+  background.label = 0;
+  instance_t out_of_range = missing;
+  out_of_range.label = 300;  // a LABEL_U8 image cannot hold it
+  instance_t no_id = missing;
+  no_id.object_id = "";
+  no_id.label = 1;
+  message.instances.insert(message.instances.end(), {missing, background, out_of_range, no_id});
+  message.num_instances = static_cast<int32_t>(message.instances.size());
+  const DecodedFrame decoded = DecodeFrame(message);
+  ASSERT_EQ(decoded.instances.size(), 6u);
+  EXPECT_TRUE(decoded.instances[0].error.empty());
+  EXPECT_TRUE(decoded.instances[1].error.empty());
+  EXPECT_NE(decoded.instances[2].error.find("label 3 has no pixels"), std::string::npos);
+  EXPECT_NE(decoded.instances[3].error.find("label must be > 0"), std::string::npos);
+  EXPECT_NE(decoded.instances[4].error.find("label 300 has no pixels"), std::string::npos);
+  EXPECT_NE(decoded.instances[5].error.find("empty object id"), std::string::npos);
+  EXPECT_TRUE(decoded.instances[2].mask.empty());
+}
+
+TEST(DecodeFrame, RefusesTooManyInstances) {
+  rgbd_frame_t message = MakeFrame();
+  DecodeLimits limits;
+  limits.max_instances = 1;
+  ExpectError([&] { DecodeFrame(message, limits); }, {"instances:", "too many"});
+}
+
+TEST(DecodeFrame, Label16AndMono8) {
+  rgbd_frame_t message = MakeFrame();
+  cv::Mat labels(kHeight, kWidth, CV_16UC1, cv::Scalar(0));
+  labels(cv::Rect(1, 1, 4, 4)).setTo(1000);
+  message.labels = EncodeImage(labels, image_t::FORMAT_LABEL_U16, image_t::COMPRESSION_PNG);
+  message.instances.resize(1);
+  message.instances[0].label = 1000;
+  message.num_instances = 1;
+  message.color =
+      EncodeImage(MakeImage(CV_8UC1, 2), image_t::FORMAT_MONO8, image_t::COMPRESSION_NONE);
+  const DecodedFrame decoded = DecodeFrame(message);
+  EXPECT_EQ(decoded.instances[0].mask_pixels, 16);
+  EXPECT_EQ(decoded.frame.rgb.type(), CV_8UC3);
+}
+
+// ---- Raw LCM bytes --------------------------------------------------------------------
+
+std::vector<uint8_t> Encode(const rgbd_frame_t& message) {
+  std::vector<uint8_t> bytes(static_cast<size_t>(message.getEncodedSize()));
+  message.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  return bytes;
+}
+
+// Writes a big-endian int32 at `offset`.
+void PutI32(std::vector<uint8_t>* bytes, size_t offset, int32_t value) {
+  for (int i = 0; i < 4; ++i)
+    (*bytes)[offset + i] = static_cast<uint8_t>(static_cast<uint32_t>(value) >> (24 - 8 * i));
+}
+
+TEST(DecodeRgbdFrameMessage, AcceptsEncodedFrames) {
+  rgbd_frame_t message = MakeFrame();
+  const std::vector<uint8_t> bytes = Encode(message);
+  EXPECT_EQ(CheckEncodedRgbdFrame(bytes.data(), static_cast<int64_t>(bytes.size())), "");
+  const rgbd_frame_t decoded =
+      DecodeRgbdFrameMessage(bytes.data(), static_cast<int64_t>(bytes.size()));
+  EXPECT_EQ(decoded.seq, 7);
+  EXPECT_EQ(decoded.instances[1].object_id, "obj_000002");
+  // Empty planes and no instances are well formed too (DecodeFrame refuses them later).
+  rgbd_frame_t empty{};
+  const std::vector<uint8_t> empty_bytes = Encode(empty);
+  EXPECT_EQ(CheckEncodedRgbdFrame(empty_bytes.data(), static_cast<int64_t>(empty_bytes.size())),
+            "");
+}
+
+TEST(DecodeRgbdFrameMessage, RefusesOtherTypesGarbageAndTruncation) {
+  pose_array_t other{};
+  std::vector<uint8_t> bytes(static_cast<size_t>(other.getEncodedSize()));
+  other.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  ExpectError([&] { DecodeRgbdFrameMessage(bytes.data(), static_cast<int64_t>(bytes.size())); },
+              {"message:", "g6d.rgbd_frame_t", "fingerprint"});
+  const std::vector<uint8_t> garbage(1000, 0x5C);
+  ExpectError([&] { DecodeRgbdFrameMessage(garbage.data(), 1000); }, {"message:", "fingerprint"});
+  ExpectError([&] { DecodeRgbdFrameMessage(garbage.data(), 3); }, {"message:", "too short"});
+  const std::vector<uint8_t> frame = Encode(MakeFrame());
+  ExpectError([&] { DecodeRgbdFrameMessage(frame.data(), static_cast<int64_t>(frame.size()) - 9); },
+              {"message:"});
+}
+
+TEST(DecodeRgbdFrameMessage, RefusesHugeDeclaredSizesWithoutAllocating) {
+  const rgbd_frame_t message = MakeFrame();
+  std::vector<uint8_t> bytes = Encode(message);
+  // Offset of color.size: fingerprint, utime, seq, two strings, two ids, five doubles,
+  // then width, height, row_stride, format, compression.
+  const size_t color_size_offset =
+      8 + 16 + (4 + message.camera_id.size() + 1) + (4 + message.source.size() + 1) + 8 + 40 + 14;
+  for (int32_t huge : {std::numeric_limits<int32_t>::max(), -5}) {
+    std::vector<uint8_t> bad = bytes;
+    PutI32(&bad, color_size_offset, huge);
+    ExpectError([&] { DecodeRgbdFrameMessage(bad.data(), static_cast<int64_t>(bad.size())); },
+                {"message:", "color.size declares"});
+  }
+  // A string length far past the end.
+  std::vector<uint8_t> bad = bytes;
+  PutI32(&bad, 8 + 16, 1 << 30);
+  ExpectError([&] { DecodeRgbdFrameMessage(bad.data(), static_cast<int64_t>(bad.size())); },
+              {"message:", "camera_id declares"});
+  // num_instances: the last instance has 4 + 11 + 12 bytes, the first as many.
+  const size_t num_instances_offset = bytes.size() - 2 * (4 + 11 + 12) - 4;
+  bad = bytes;
+  PutI32(&bad, num_instances_offset, 1 << 30);
+  ExpectError([&] { DecodeRgbdFrameMessage(bad.data(), static_cast<int64_t>(bad.size())); },
+              {"message:", "num_instances declares"});
+}
+
+}  // namespace
+}  // namespace g6d

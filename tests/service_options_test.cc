@@ -1,0 +1,142 @@
+// ServiceOptions: defaults, Check() and the YAML file format.
+#include "service/service_options.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <string>
+
+#include "core/error.h"
+#include "test_util.h"
+
+namespace g6d {
+namespace {
+
+ServiceOptions Valid() {
+  ServiceOptions options;
+  options.templates_dir = "/tmp";
+  return options;
+}
+
+TEST(ServiceOptions, DefaultsAreValidOnceTemplatesAreSet) {
+  EXPECT_NE(ServiceOptions().Check().find("templates_dir"), std::string::npos);
+  EXPECT_EQ(Valid().Check(), "");
+  EXPECT_EQ(Valid().input_channel, "G6D_RGBD");
+  EXPECT_EQ(Valid().output_channel, "G6D_POSES");
+  EXPECT_EQ(Valid().status_channel, "G6D_STATUS");
+}
+
+TEST(ServiceOptions, CheckNamesTheBadField) {
+  ServiceOptions options = Valid();
+  options.workers = 0;
+  EXPECT_NE(options.Check().find("workers"), std::string::npos);
+  options = Valid();
+  options.output_channel = options.input_channel;
+  EXPECT_NE(options.Check().find("channels must differ"), std::string::npos);
+  options = Valid();
+  options.max_age_ms = -1;
+  EXPECT_NE(options.Check().find("max_age_ms"), std::string::npos);
+  options = Valid();
+  options.solver.num_hypotheses = 0;
+  EXPECT_NE(options.Check().find("solver."), std::string::npos);
+  options = Valid();
+  options.limits.max_width = 0;
+  EXPECT_NE(options.Check().find("limits.max_width"), std::string::npos);
+}
+
+TEST(ParseServiceOptionsYaml, ReadsEveryKey) {
+  ServiceOptions options;
+  ParseServiceOptionsYaml(R"(
+name: cam1
+templates: /data/caches
+input: CAM1_RGBD
+output: CAM1_POSES
+status: CAM1_STATUS
+lcm_url: udpm://239.255.76.67:7667?ttl=1
+workers: 3
+hypotheses: 6
+max_age_ms: 250
+subscription_queue: 3
+status_period_s: 0.5
+latency_window: 50
+shutdown_timeout_s: 1.0
+limits: {max_width: 2000, max_height: 1500, max_raw_bytes: 100000000, max_instances: 8}
+solver:
+  max_sets: 64
+  hamming_threshold: 60
+  min_correspondences: 8
+  query_features: 400
+  run_icp: false
+  run_mhpo: true
+  mhpo_max_rounds: 3
+  early_stop_score: 0.05
+  reject_border_masks: false
+  min_valid_depth_pixels: 50
+)",
+                          "test.yaml", &options);
+  EXPECT_EQ(options.name, "cam1");
+  EXPECT_EQ(options.templates_dir, "/data/caches");
+  EXPECT_EQ(options.input_channel, "CAM1_RGBD");
+  EXPECT_EQ(options.output_channel, "CAM1_POSES");
+  EXPECT_EQ(options.status_channel, "CAM1_STATUS");
+  EXPECT_EQ(options.lcm_url, "udpm://239.255.76.67:7667?ttl=1");
+  EXPECT_EQ(options.workers, 3);
+  EXPECT_EQ(options.solver.num_hypotheses, 6);
+  EXPECT_EQ(options.max_age_ms, 250);
+  EXPECT_EQ(options.subscription_queue, 3);
+  EXPECT_EQ(options.status_period_s, 0.5);
+  EXPECT_EQ(options.latency_window, 50);
+  EXPECT_EQ(options.shutdown_timeout_s, 1.0);
+  EXPECT_EQ(options.limits.max_width, 2000);
+  EXPECT_EQ(options.limits.max_raw_bytes, 100000000);
+  EXPECT_EQ(options.limits.max_instances, 8);
+  EXPECT_EQ(options.solver.match.max_sets, 64);
+  EXPECT_EQ(options.solver.match.hamming_threshold, 60);
+  EXPECT_EQ(options.solver.match.min_correspondences, 8);
+  EXPECT_EQ(options.solver.query_orb.max_features, 400);
+  EXPECT_FALSE(options.solver.run_icp);
+  EXPECT_EQ(options.solver.mhpo.max_rounds, 3);
+  EXPECT_EQ(options.solver.mhpo.early_stop_score, 0.05);
+  EXPECT_FALSE(options.solver.reject_border_masks);
+  EXPECT_EQ(options.solver.min_valid_depth_pixels, 50);
+  EXPECT_EQ(options.Check(), "");
+}
+
+TEST(ParseServiceOptionsYaml, KeysNotGivenKeepTheirValues) {
+  ServiceOptions options = Valid();
+  ParseServiceOptionsYaml("workers: 1\n", "test.yaml", &options);
+  EXPECT_EQ(options.workers, 1);
+  EXPECT_EQ(options.templates_dir, "/tmp");
+  ParseServiceOptionsYaml("", "empty.yaml", &options);
+  EXPECT_EQ(options.workers, 1);
+}
+
+TEST(ParseServiceOptionsYaml, RefusesUnknownKeysWrongTypesAndBadYaml) {
+  ServiceOptions options;
+  auto expect_error = [&](const std::string& text, const std::string& words) {
+    try {
+      ParseServiceOptionsYaml(text, "bad.yaml", &options);
+      ADD_FAILURE() << "no error for: " << text;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("bad.yaml"), std::string::npos) << e.what();
+    }
+  };
+  expect_error("wrokers: 2\n", "unknown key 'wrokers'");
+  expect_error("solver: {max_set: 2}\n", "unknown key 'solver.max_set'");
+  expect_error("workers: many\n", "'workers' has a value of the wrong type");
+  expect_error("solver: 3\n", "'solver' must be a mapping");
+  expect_error("workers: [1, 2\n", "not valid YAML");
+}
+
+TEST(LoadServiceOptionsYaml, ReadsAFileAndNamesAMissingOne) {
+  const std::string dir = test::TempDir("service_options");
+  std::ofstream(dir + "/service.yaml") << "hypotheses: 7\n";
+  ServiceOptions options;
+  LoadServiceOptionsYaml(dir + "/service.yaml", &options);
+  EXPECT_EQ(options.solver.num_hypotheses, 7);
+  EXPECT_THROW(LoadServiceOptionsYaml(dir + "/missing.yaml", &options), Error);
+}
+
+}  // namespace
+}  // namespace g6d
