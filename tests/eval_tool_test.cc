@@ -17,6 +17,7 @@
 #include "eval/bop.h"
 #include "eval/bop_csv.h"
 #include "test_meshes.h"
+#include "process_util.h"
 #include "test_util.h"
 
 namespace g6d {
@@ -27,22 +28,8 @@ using Json = nlohmann::json;
 
 const std::string kEval = G6D_BINARY_DIR "/tools/g6d-eval";
 
-struct RunResult {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr
-};
-
-RunResult RunCommand(const std::string& command) {
-  RunResult result;
-  FILE* pipe = ::popen((command + " 2>&1").c_str(), "r");
-  if (pipe == nullptr) return result;
-  char buffer[4096];
-  size_t n;
-  while ((n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0) result.output.append(buffer, n);
-  const int status = ::pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
+using RunResult = test::CommandResult;
+using test::RunCommand;
 
 // A cube dataset with two images, and a results CSV holding the GT of image 0 only.
 struct ToolFixture {

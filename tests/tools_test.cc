@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "templates/cache.h"
+#include "process_util.h"
 #include "test_util.h"
 
 namespace g6d {
@@ -27,22 +28,8 @@ const std::string kBuildTemplates = G6D_BINARY_DIR "/tools/g6d-build-templates";
 const std::string kInspect = G6D_BINARY_DIR "/tools/g6d-inspect";
 const std::string kSolve = G6D_BINARY_DIR "/tools/g6d-solve";
 
-struct RunResult {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr
-};
-
-RunResult RunCommand(const std::string& command) {
-  RunResult result;
-  FILE* pipe = ::popen((command + " 2>&1").c_str(), "r");
-  if (pipe == nullptr) return result;
-  char buffer[4096];
-  size_t n;
-  while ((n = std::fread(buffer, 1, sizeof(buffer), pipe)) > 0) result.output.append(buffer, n);
-  const int status = ::pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
+using RunResult = test::CommandResult;
+using test::RunCommand;
 
 // An ASCII PLY box in millimetres with a random vertex-colour checker on every side (each
 // quad has its own four vertices so the colours change sharply).
