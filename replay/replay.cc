@@ -541,4 +541,38 @@ std::string ReplaySummaryJson(const ReplayOptions& options, const FrameLogStats&
   return summary.dump(2) + "\n";
 }
 
+std::string EstimatesJsonLines(const std::vector<ReplayedFrame>& frames) {
+  using Json = nlohmann::ordered_json;
+  std::string lines;
+  for (const ReplayedFrame& frame : frames) {
+    if (!frame.answered || frame.answer.status != pose_array_t::STATUS_OK) continue;
+    for (const pose_estimate_t& estimate : frame.answer.estimates) {
+      const Json line = {
+          {"scene_id", frame.answer.scene_id},
+          {"image_id", frame.answer.image_id},
+          {"seq", frame.seq},
+          {"source", frame.answer.source},
+          {"object_id", estimate.object_id},
+          {"label", estimate.label},
+          {"gt_index", estimate.gt_index},
+          {"status", EstimateStatusName(estimate.status)},
+          {"message", estimate.message},
+          {"score", estimate.score},
+          {"confidence", estimate.confidence},
+          {"iou", estimate.iou},
+          {"depth_residual", estimate.depth_residual},
+          {"hypotheses", estimate.hypotheses},
+          {"solve_time_s", estimate.solve_time_s},
+          {"position", {estimate.position[0], estimate.position[1], estimate.position[2]}},
+          {"orientation",
+           {estimate.orientation[0], estimate.orientation[1], estimate.orientation[2],
+            estimate.orientation[3]}},
+          {"latency_s", frame.latency_s},
+          {"service_total_s", frame.answer.total_s}};
+      lines += line.dump() + "\n";
+    }
+  }
+  return lines;
+}
+
 }  // namespace g6d

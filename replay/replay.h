@@ -149,6 +149,14 @@ std::vector<BopEstimate> AnswersToBopEstimates(const std::vector<ReplayedFrame>&
 std::string ReplaySummaryJson(const ReplayOptions& options, const FrameLogStats& log,
                               const ReplayReport& report);
 
+/// Every estimate of the answered frames as JSON lines (one object per line, in send
+/// order), for per-instance analysis: scene_id, image_id, seq, source, object_id, label,
+/// gt_index, status (EstimateStatusName), message, score (S_A, lower is better),
+/// confidence, iou, depth_residual, hypotheses, solve_time_s, position (m) and orientation
+/// (w, x, y, z) of cam_from_object, and the frame's latency_s and service total_s. Failed
+/// estimates are included; frames rejected as a whole or never answered give no line.
+std::string EstimatesJsonLines(const std::vector<ReplayedFrame>& frames);
+
 /// The nearest-rank percentile (q in [0, 1]) of values; 0 for none.
 double Percentile(std::vector<double> values, double q);
 

@@ -97,7 +97,7 @@ int main(int argc, char** argv) {
   CLI::App app{
       "g6d-replay: feed an LCM log of g6d_rgbd_frame_t to a running g6d-service and collect its "
       "answers"};
-  std::string log_path, lcm_url, mode = "wait", results_csv, summary_json,
+  std::string log_path, lcm_url, mode = "wait", results_csv, summary_json, estimates_jsonl,
                                  status_channel = "G6D_STATUS";
   int wait_for_service_ms = 0;
   g6d::ReplayOptions options;
@@ -120,6 +120,9 @@ int main(int argc, char** argv) {
   app.add_option("--results-csv", results_csv,
                  "BOP results CSV to write (estimates with status ok)");
   app.add_option("--summary-json", summary_json, "summary JSON to write");
+  app.add_option("--estimates-jsonl", estimates_jsonl,
+                 "JSON lines to write, one per estimate: ids, status, S_A, confidence, IoU, "
+                 "solve time, pose");
   app.add_option(
          "--wait-for-service-ms", wait_for_service_ms,
          "first wait (at most this long) for a status of the service serving --channel; 0 = "
@@ -177,6 +180,8 @@ int main(int argc, char** argv) {
     if (!results_csv.empty()) g6d::WriteBopCsv(results_csv, rows);
     if (!summary_json.empty())
       WriteText(summary_json, g6d::ReplaySummaryJson(options, reader.stats(), report));
+    if (!estimates_jsonl.empty())
+      WriteText(estimates_jsonl, g6d::EstimatesJsonLines(report.frames));
 
     const int64_t ok =
         report.estimates_by_status.count("ok") ? report.estimates_by_status.at("ok") : 0;

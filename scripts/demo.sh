@@ -1,25 +1,156 @@
 #!/usr/bin/env bash
-# The main job on the embedded default. Today (foundation stage) it sets up, builds the
-# template cache of one object and prints the cache summary and a contact sheet; the full
-# service + replay demo replaces this once the service and sample issues land.
-#   bash scripts/demo.sh                 # LM-O's ape if ../shared is present, else a generated box
-#   MESH=path.ply UNITS=mm bash scripts/demo.sh
+# The README's first command: g6d end to end, through LCM, as a robot stack would use it.
+#   1. set up: install the Debian packages and build (scripts/setup.sh)
+#   2. make the embedded sample with g6d-make-sample (textured objects, their template
+#      caches, an RGB-D sequence with ground truth as a BOP folder and as an LCM log);
+#      kept when it is already there and current
+#   3. start g6d-service on a private loopback LCM URL with the sample's caches
+#   4. replay the log one frame at a time (g6d-replay --mode wait)
+#   5. score the answers against the ground truth (g6d-eval), draw overlays (g6d-overlay)
+#   6. print one line per instance and a summary, stop the service
+#
+#   bash scripts/demo.sh                        # the embedded sample
+#   DATASET=path/to/bop bash scripts/demo.sh    # the same on a BOP dataset folder
+#
+# Environment:
+#   DATASET=DIR        a BOP folder (models/models_info.json, test_targets_bop19.json,
+#                      test/NNNNNN/) instead of the sample; missing caches are built
+#   IMAGES=LIST        with DATASET: only these image ids, e.g. 0-20 (scored on them only)
+#   OUT=DIR            outputs (default out/demo, or out/demo/<dataset name> with DATASET)
+#   BUILD_DIR=build    build folder;  G6D_SKIP_APT=1: no apt-get;  G6D_SKIP_BUILD=1: no setup
+#   FRAMES=12 SEED=1   the sample's length and seed
+#   K=                 hypotheses N_H of the service (default: the service's own, 4)
+#   WORKERS=2          solver threads of the service (and template build threads)
+#   EVAL_ARGS="..."    extra g6d-eval arguments, e.g. "--adds-ids 21" (YCB-V's foam brick)
+# Exit status 0 only when every step ran and every image was answered.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/setup.sh
+# shellcheck source=scripts/lib_g6d.sh
+source scripts/lib_g6d.sh
+
 BUILD_DIR="${BUILD_DIR:-build}"
-OUT="${OUT:-out/demo}"
-mkdir -p "${OUT}"
-MESH="${MESH:-../shared/data/lmo/models/obj_000001.ply}"
-UNITS="${UNITS:-mm}"
-if [[ ! -f "${MESH}" ]]; then
-  echo "[demo] ${MESH} is absent: using a procedurally coloured box instead"
-  MESH="${OUT}/demo_box.ply"
-  UNITS=mm
-  python3 scripts/make_demo_mesh.py "${MESH}" 1
+WORKERS="${WORKERS:-2}"
+FRAMES="${FRAMES:-12}"
+SEED="${SEED:-1}"
+if [[ -n "${DATASET:-}" ]]; then
+  DATASET="${DATASET%/}"
+  for f in "${DATASET}/models/models_info.json" "${DATASET}/test_targets_bop19.json"; do
+    if [[ ! -f "${f}" ]]; then
+      echo "[demo] ${f} is missing: DATASET must be a BOP folder with models and BOP'19 targets" >&2
+      exit 2
+    fi
+  done
+  OUT="${OUT:-out/demo/$(basename "$(cd "${DATASET}" && pwd)")}"
+else
+  OUT="${OUT:-out/demo}"
 fi
-ID="${ID:-$(basename "${MESH%.*}")}"
-"${BUILD_DIR}/tools/g6d-build-templates" --mesh "${MESH}" --units "${UNITS}" --object-id "${ID}" \
-  --out "${OUT}/${ID}.g6dcache" --threads 2
-"${BUILD_DIR}/tools/g6d-inspect" "${OUT}/${ID}.g6dcache" --sheet "${OUT}/${ID}_sheet.png"
-echo "[demo] cache: ${OUT}/${ID}.g6dcache   contact sheet: ${OUT}/${ID}_sheet.png"
+
+if [[ "${G6D_SKIP_BUILD:-0}" != "1" ]]; then
+  BUILD_DIR="${BUILD_DIR}" bash scripts/setup.sh
+fi
+for bin in tools/g6d-make-sample tools/g6d-build-templates tools/g6d-eval tools/g6d-overlay \
+           service/g6d-service replay/g6d-bop2lcm replay/g6d-replay; do
+  if [[ ! -x "${BUILD_DIR}/${bin}" ]]; then
+    echo "[demo] ${BUILD_DIR}/${bin} is not built (run scripts/setup.sh, or set BUILD_DIR)" >&2
+    exit 2
+  fi
+done
+start_time=${SECONDS}
+
+mkdir -p "${OUT}"
+rm -rf "${OUT}/replay" "${OUT}/overlays" "${OUT}/logs"
+rm -f "${OUT}/results.csv" "${OUT}/estimates.jsonl" "${OUT}/eval.json" "${OUT}/eval.txt"
+mkdir -p "${OUT}/replay" "${OUT}/logs"
+
+# 1. The data: the sample (made or reused), or the dataset's caches and logs.
+declare -a SCENES LOGS
+if [[ -z "${DATASET:-}" ]]; then
+  DATASET="${OUT}/sample"
+  "${BUILD_DIR}/tools/g6d-make-sample" --out "${DATASET}" --frames "${FRAMES}" --seed "${SEED}" \
+    --threads "${WORKERS}" --reuse
+  CACHE_DIR="${DATASET}/caches"
+  SCENES=(1)
+  LOGS=("${DATASET}/sample.lcmlog")
+  SCORE_ARGS=()
+else
+  CACHE_DIR="${CACHE_DIR:-${OUT}/caches}"
+  g6d_build_missing_caches "${BUILD_DIR}/tools/g6d-build-templates" "${DATASET}" "${CACHE_DIR}" "${WORKERS}"
+  read -r -a SCENES <<< "$(g6d_target_scenes "${DATASET}")"
+  LOGS=()
+  frame_args=()
+  SCORE_ARGS=()
+  if [[ -n "${IMAGES:-}" ]]; then
+    frame_args=(--frames "${IMAGES}")
+    SCORE_ARGS=(--estimated-only)
+  fi
+  for scene in "${SCENES[@]}"; do
+    log="${OUT}/logs/$(printf '%06d' "${scene}").lcmlog"
+    "${BUILD_DIR}/replay/g6d-bop2lcm" --dataset "${DATASET}" --scene "${scene}" --out "${log}" "${frame_args[@]}"
+    LOGS+=("${log}")
+  done
+fi
+
+# 2. The service on a loopback multicast port of this run only.
+URL="$(g6d_lcm_url)"
+service_args=(--workers "${WORKERS}")
+if [[ -n "${K:-}" ]]; then service_args+=(--hypotheses "${K}"); fi
+trap 'g6d_stop_service || true' EXIT
+trap 'exit 130' INT TERM
+g6d_start_service "${BUILD_DIR}/service/g6d-service" "${CACHE_DIR}" "${URL}" "${OUT}/service.log" "${service_args[@]}"
+
+# 3. Replay, one frame at a time; the first replay waits for the service's status.
+estimates_args=()
+if "${BUILD_DIR}/replay/g6d-replay" --help 2>&1 | grep -q -- '--estimates-jsonl'; then
+  estimates_args=(--estimates-jsonl)
+fi
+failed=0
+wait_ms=120000
+for i in "${!SCENES[@]}"; do
+  scene="${SCENES[$i]}"
+  extra=("${estimates_args[@]}")
+  if ((${#extra[@]})); then extra+=("${OUT}/replay/${scene}.jsonl"); fi
+  if ! "${BUILD_DIR}/replay/g6d-replay" --log "${LOGS[$i]}" --lcm-url "${URL}" --mode wait \
+      --wait-for-service-ms "${wait_ms}" --results-csv "${OUT}/replay/${scene}.csv" \
+      --summary-json "${OUT}/replay/${scene}.json" "${extra[@]}"; then
+    echo "[demo] the replay of scene ${scene} did not complete (see ${OUT}/service.log)" >&2
+    failed=1
+  fi
+  wait_ms=10000
+  if ! g6d_service_alive; then
+    echo "[demo] g6d-service died; the end of its log:" >&2
+    tail -20 "${OUT}/service.log" >&2
+    exit 1
+  fi
+done
+if ! g6d_stop_service; then
+  echo "[demo] g6d-service did not stop cleanly (see ${OUT}/service.log)" >&2
+  failed=1
+fi
+{
+  echo "scene_id,im_id,obj_id,score,R,t,time"
+  for scene in "${SCENES[@]}"; do
+    if [[ -f "${OUT}/replay/${scene}.csv" ]]; then tail -n +2 "${OUT}/replay/${scene}.csv"; fi
+  done
+} > "${OUT}/results.csv"
+if ((${#estimates_args[@]})); then cat "${OUT}/replay/"*.jsonl > "${OUT}/estimates.jsonl"; fi
+
+# 4. Score and draw.
+# shellcheck disable=SC2086  # EVAL_ARGS is a list of words
+if ! "${BUILD_DIR}/tools/g6d-eval" --dataset "${DATASET}" --results "${OUT}/results.csv" \
+    --json "${OUT}/eval.json" --per-instance --threads "${WORKERS}" "${SCORE_ARGS[@]}" ${EVAL_ARGS:-} \
+    > "${OUT}/eval.txt"; then
+  echo "[demo] g6d-eval failed:" >&2
+  cat "${OUT}/eval.txt" >&2
+  exit 1
+fi
+"${BUILD_DIR}/tools/g6d-overlay" --dataset "${DATASET}" --results "${OUT}/results.csv" --out "${OUT}/overlays" \
+  --caches "${CACHE_DIR}" > /dev/null
+
+# 5. The table and the summary.
+echo
+echo "g6d on $(basename "$(cd "${DATASET}" && pwd)"), through g6d-service over LCM:"
+python3 scripts/demo_report.py "${OUT}" "${DATASET}"
+echo "overlays (estimate green, ground truth blue): ${OUT}/overlays/ ($(find "${OUT}/overlays" -name '*.png' | wc -l) PNGs)"
+echo "per-target BOP table: ${OUT}/eval.txt; answers: ${OUT}/results.csv; service log: ${OUT}/service.log"
+echo "[demo] done in $((SECONDS - start_time)) s after the build"
+exit "${failed}"

@@ -1,7 +1,7 @@
 // g6d-eval: BOP'19 evaluation of a BOP results CSV on a BOP dataset.
 //
 //   g6d-eval --dataset DIR --results CSV [--targets FILE] [--json OUT.json]
-//       [--plot OUT.png] [--threads N] [--adds-ids 21,...] [--estimated-only]
+//       [--plot OUT.png] [--threads N] [--adds-ids 21,...] [--estimated-only] [--per-instance]
 //
 // Prints, per object and over all targets, the number of targets, ADD(-S)@0.1d recall
 // (the g6d-bench-dataset criterion) and the BOP'19 average recalls AR_VSD, AR_MSSD,
@@ -10,6 +10,10 @@
 // one entry per target; --plot draws a bar chart of ADD(-S) and AR per object.
 // --estimated-only keeps only the targets whose (image, object) has an estimate: for
 // comparing partial runs (g6d-bench-dataset --limit); that is not a BOP score.
+// --per-instance also prints one line per target: its image, object, GT index, visible
+// fraction, the score and time of the image's best-scored estimate of that object, and
+// the smallest ADD(-S) error of the image's kept estimates of that object (mm and
+// diameters) with the matched verdict.
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
@@ -17,6 +21,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -55,6 +60,41 @@ void PrintTable(const g6d::BopEvalReport& report) {
     PrintRow(ObjectLabel(object), object.recall);
   }
   PrintRow("all", report.overall);
+}
+
+// One line per target (BopTargetReport), with the score and time of the image's
+// best-scored estimate of the object.
+void PrintPerInstance(const g6d::BopDataset& dataset, const g6d::BopEvalReport& report,
+                      const std::vector<g6d::BopEstimate>& estimates) {
+  std::map<std::tuple<int, int, int>, const g6d::BopEstimate*> best;
+  for (const g6d::BopEstimate& e : estimates) {
+    const g6d::BopEstimate*& slot = best[{e.scene_id, e.im_id, e.obj_id}];
+    if (slot == nullptr || e.score > slot->score) slot = &e;
+  }
+  std::printf(
+      "\nper instance (score and time of the image's best-scored estimate of the object; error: "
+      "smallest ADD(-S) of its kept estimates):\n");
+  std::printf("| %5s | %6s | %-12s | %3s | %5s | %6s | %8s | %10s | %6s | %-7s |\n", "scene",
+              "image", "object", "gt", "visib", "score", "time (s)", "error (mm)", "/ d",
+              "correct");
+  std::printf(
+      "|-------|--------|--------------|-----|-------|--------|----------|------------|--------|---"
+      "------|\n");
+  for (const g6d::BopTargetReport& t : report.targets) {
+    const g6d::BopObjectInfo& info = dataset.Object(t.obj_id);
+    const auto it = best.find({t.scene_id, t.im_id, t.obj_id});
+    if (it == best.end() || !std::isfinite(t.add_m)) {
+      std::printf("| %5d | %6d | %-12s | %3d | %5.2f | %6s | %8s | %10s | %6s | %-7s |\n",
+                  t.scene_id, t.im_id, info.name.c_str(), t.gt_idx, t.visib_fract, "-", "-", "-",
+                  "-", "no est.");
+      continue;
+    }
+    std::printf("| %5d | %6d | %-12s | %3d | %5.2f | %6.3f | %8.3f | %10.1f | %6.3f | %-7s |\n",
+                t.scene_id, t.im_id, info.name.c_str(), t.gt_idx, t.visib_fract, it->second->score,
+                it->second->time_s, t.add_m * 1000.0,
+                info.diameter_m > 0.0 ? t.add_m / info.diameter_m : 0.0,
+                t.add_correct ? "yes" : "no");
+  }
 }
 
 Json RecallJson(const g6d::BopRecall& r) {
@@ -247,6 +287,10 @@ int main(int argc, char** argv) {
       ->delimiter(',');
   app.add_option("--split", split, "dataset split folder")->capture_default_str();
   bool estimated_only = false;
+  bool per_instance = false;
+  app.add_flag(
+      "--per-instance", per_instance,
+      "also print one line per target: score, time, ADD(-S) error in mm and diameters, correct");
   app.add_flag("--estimated-only", estimated_only,
                "evaluate only targets whose image and object have an estimate (partial runs; "
                "not a BOP score)");
@@ -298,6 +342,7 @@ int main(int argc, char** argv) {
         "\nrecalls are fractions of the targets; missing estimates count as failures.\n"
         "time: load %.2f s, errors %.2f s, total %.2f s (%d threads)\n",
         report.load_ms / 1000.0, report.errors_ms / 1000.0, report.total_ms / 1000.0, threads);
+    if (per_instance) PrintPerInstance(dataset, report, estimates);
 
     if (!json_path.empty()) {
       std::ofstream out(json_path);
