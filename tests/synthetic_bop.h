@@ -23,6 +23,7 @@
 #include "core/se3.h"
 #include "mesh/mesh.h"
 #include "render/gl_renderer.h"
+#include "test_meshes.h"
 
 namespace g6d::test {
 
@@ -42,54 +43,6 @@ struct SyntheticBop {
   /// Per image, per GT index: the pose rendered.
   std::vector<std::vector<Eigen::Isometry3d>> cam_from_object;
 };
-
-/// An ASCII PLY box of half sizes `half_mm` (millimetres) centred at the origin, each side
-/// split into cells x cells quads of random vertex colours, faces counter-clockwise seen
-/// from outside.
-inline void WriteColouredBoxPly(const std::string& path, const Eigen::Vector3d& half_mm, int cells,
-                                uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::uniform_int_distribution<int> colour(15, 240);
-  std::vector<std::string> vertex_lines, face_lines;
-  for (int axis = 0; axis < 3; ++axis) {
-    for (int sign : {1, -1}) {
-      const int a = (axis + 1) % 3, b = (axis + 2) % 3;
-      for (int i = 0; i < cells; ++i) {
-        for (int j = 0; j < cells; ++j) {
-          const int red = colour(rng), green = colour(rng), blue = colour(rng);
-          const int base = static_cast<int>(vertex_lines.size());
-          const int corner_i[4] = {0, 1, 1, 0}, corner_j[4] = {0, 0, 1, 1};
-          for (int k = 0; k < 4; ++k) {
-            Eigen::Vector3d point;
-            point[axis] = sign * half_mm[axis];
-            point[a] = half_mm[a] * (-1.0 + 2.0 * (i + corner_i[k]) / cells);
-            point[b] = half_mm[b] * (-1.0 + 2.0 * (j + corner_j[k]) / cells);
-            vertex_lines.push_back(std::to_string(point.x()) + " " + std::to_string(point.y()) +
-                                   " " + std::to_string(point.z()) + " " + std::to_string(red) +
-                                   " " + std::to_string(green) + " " + std::to_string(blue));
-          }
-          // (a, b, axis) is right-handed, so a -> b is counter-clockwise seen from +axis.
-          const std::string v0 = std::to_string(base), v1 = std::to_string(base + 1),
-                            v2 = std::to_string(base + 2), v3 = std::to_string(base + 3);
-          if (sign > 0) {
-            face_lines.push_back("3 " + v0 + " " + v1 + " " + v2);
-            face_lines.push_back("3 " + v0 + " " + v2 + " " + v3);
-          } else {
-            face_lines.push_back("3 " + v0 + " " + v2 + " " + v1);
-            face_lines.push_back("3 " + v0 + " " + v3 + " " + v2);
-          }
-        }
-      }
-    }
-  }
-  std::ofstream out(path);
-  out << "ply\nformat ascii 1.0\nelement vertex " << vertex_lines.size()
-      << "\nproperty float x\nproperty float y\nproperty float z\n"
-         "property uchar red\nproperty uchar green\nproperty uchar blue\nelement face "
-      << face_lines.size() << "\nproperty list uchar int vertex_indices\nend_header\n";
-  for (const std::string& line : vertex_lines) out << line << "\n";
-  for (const std::string& line : face_lines) out << line << "\n";
-}
 
 /// Writes the dataset under `root` (created; existing files overwritten):
 ///   models/obj_000001.ply, obj_000002.ply, models_info.json

@@ -17,6 +17,7 @@
 
 #include "templates/cache.h"
 #include "process_util.h"
+#include "test_meshes.h"
 #include "test_util.h"
 
 namespace g6d {
@@ -31,53 +32,10 @@ const std::string kSolve = G6D_BINARY_DIR "/tools/g6d-solve";
 using RunResult = test::CommandResult;
 using test::RunCommand;
 
-// An ASCII PLY box in millimetres with a random vertex-colour checker on every side (each
-// quad has its own four vertices so the colours change sharply).
+// An ASCII PLY box in millimetres (half sizes 40 x 30 x 20) with a random vertex-colour
+// checker on every side.
 void WriteCheckerBoxPly(const std::string& path) {
-  const double half[3] = {40.0, 30.0, 20.0};
-  const int cells = 10;
-  std::mt19937 rng(5);
-  std::uniform_int_distribution<int> colour(10, 245);
-  std::vector<std::string> vertices, faces;
-  for (int axis = 0; axis < 3; ++axis) {
-    for (int sign : {-1, 1}) {
-      const int u_axis = (axis + 1) % 3, v_axis = (axis + 2) % 3;
-      for (int i = 0; i < cells; ++i) {
-        for (int j = 0; j < cells; ++j) {
-          const int r = colour(rng), g = colour(rng), b = colour(rng);
-          const int base = static_cast<int>(vertices.size());
-          for (int corner = 0; corner < 4; ++corner) {
-            const int di = (corner == 1 || corner == 2) ? 1 : 0;
-            const int dj = corner >= 2 ? 1 : 0;
-            double p[3];
-            p[axis] = sign * half[axis];
-            p[u_axis] = half[u_axis] * (-1.0 + 2.0 * (i + di) / cells);
-            p[v_axis] = half[v_axis] * (-1.0 + 2.0 * (j + dj) / cells);
-            vertices.push_back(std::to_string(p[0]) + " " + std::to_string(p[1]) + " " +
-                               std::to_string(p[2]) + " " + std::to_string(r) + " " +
-                               std::to_string(g) + " " + std::to_string(b));
-          }
-          const std::string b0 = std::to_string(base), b1 = std::to_string(base + 1),
-                            b2 = std::to_string(base + 2), b3 = std::to_string(base + 3);
-          if (sign > 0) {
-            faces.push_back("3 " + b0 + " " + b1 + " " + b2);
-            faces.push_back("3 " + b0 + " " + b2 + " " + b3);
-          } else {
-            faces.push_back("3 " + b0 + " " + b2 + " " + b1);
-            faces.push_back("3 " + b0 + " " + b3 + " " + b2);
-          }
-        }
-      }
-    }
-  }
-  std::ofstream out(path);
-  out << "ply\nformat ascii 1.0\nelement vertex " << vertices.size()
-      << "\nproperty float x\nproperty float y\nproperty float z\n"
-         "property uchar red\nproperty uchar green\nproperty uchar blue\n"
-      << "element face " << faces.size()
-      << "\nproperty list uchar int vertex_indices\nend_header\n";
-  for (const auto& v : vertices) out << v << "\n";
-  for (const auto& f : faces) out << f << "\n";
+  test::WriteColouredBoxPly(path, Eigen::Vector3d(40.0, 30.0, 20.0), 10, 5);
 }
 
 TEST(Tools, BuildTemplatesThenInspect) {

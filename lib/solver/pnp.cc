@@ -56,6 +56,20 @@ std::vector<Eigen::Vector3d> BackprojectKeypoints(const Camera& camera, const cv
 
 namespace {
 
+// OpenCV's (rvec, tvec) as cam_from_object.
+Eigen::Isometry3d PoseFromRvecTvec(const cv::Mat& rvec, const cv::Mat& tvec) {
+  cv::Mat rotation_cv;
+  cv::Rodrigues(rvec, rotation_cv);
+  Eigen::Matrix3d rotation;
+  Eigen::Vector3d translation;
+  cv::cv2eigen(rotation_cv, rotation);
+  cv::cv2eigen(tvec, translation);
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = rotation;
+  pose.translation() = translation;
+  return pose;
+}
+
 // The data of one MSAC run. Scores follow eq. (5): Σ min(r², τ²).
 class MsacProblem {
  public:
@@ -122,14 +136,9 @@ class MsacProblem {
     } catch (const cv::Exception&) {
       return false;
     }
-    cv::Rodrigues(rvec, rotation_cv);
-    Eigen::Matrix3d rotation;
-    Eigen::Vector3d translation;
-    cv::cv2eigen(rotation_cv, rotation);
-    cv::cv2eigen(tvec, translation);
-    if (!rotation.allFinite() || !translation.allFinite()) return false;
-    pose->linear() = rotation;
-    pose->translation() = translation;
+    const Eigen::Isometry3d refined = PoseFromRvecTvec(rvec, tvec);
+    if (!refined.matrix().allFinite()) return false;
+    *pose = refined;
     return true;
   }
 
@@ -152,18 +161,7 @@ class MsacProblem {
     } catch (const cv::Exception&) {
       return;
     }
-    for (size_t s = 0; s < rvecs.size(); ++s) {
-      cv::Mat rotation_cv;
-      cv::Rodrigues(rvecs[s], rotation_cv);
-      Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-      Eigen::Matrix3d rotation;
-      Eigen::Vector3d translation;
-      cv::cv2eigen(rotation_cv, rotation);
-      cv::cv2eigen(tvecs[s], translation);
-      pose.linear() = rotation;
-      pose.translation() = translation;
-      models->push_back(pose);
-    }
+    for (size_t s = 0; s < rvecs.size(); ++s) models->push_back(PoseFromRvecTvec(rvecs[s], tvecs[s]));
   }
 
   // 3D-3D: the sample's object points onto their observed camera-frame points. Rejects
@@ -270,14 +268,7 @@ bool RunOpenCvUsac(const PnpOptions& options, const CorrespondenceSet& set, cons
   } catch (const cv::Exception&) {
     return false;
   }
-  cv::Mat rotation_cv;
-  cv::Rodrigues(rvec, rotation_cv);
-  Eigen::Matrix3d rotation;
-  Eigen::Vector3d translation;
-  cv::cv2eigen(rotation_cv, rotation);
-  cv::cv2eigen(tvec, translation);
-  pose->linear() = rotation;
-  pose->translation() = translation;
+  *pose = PoseFromRvecTvec(rvec, tvec);
   return true;
 }
 
