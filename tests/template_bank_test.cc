@@ -171,6 +171,17 @@ TEST(BuildTemplateBank, SameBytesForAnyThreadCount) {
   EXPECT_TRUE(a == b) << "banks differ between 1 and 2 threads";
 }
 
+// Two builds on one pool: the pool's worker threads outlive the first build's GL contexts,
+// so no context may stay current on a worker after the build returns (it used to, and the
+// second build crashed inside OSMesaMakeCurrent on the destroyed context).
+TEST(BuildTemplateBank, TwoBuildsOnOnePoolGiveTheSameBank) {
+  const Mesh mesh = CheckerBox(Eigen::Vector3f(0.03f, 0.03f, 0.05f), 10, 2);
+  ThreadPool pool(2);
+  const std::string a = Encoded(BuildTemplateBank(mesh, "box", FewViews(), &pool), "bank_pool_a");
+  const std::string b = Encoded(BuildTemplateBank(mesh, "box", FewViews(), &pool), "bank_pool_b");
+  EXPECT_TRUE(a == b) << "the second build on the same pool differs";
+}
+
 TEST(BuildTemplateBank, LmoApePointsLieOnTheSurfaceAndReproject) {
   G6D_REQUIRE_SHARED_DATA("lmo/models/obj_000001.ply");
   const Mesh mesh =

@@ -235,6 +235,21 @@ struct GlRenderer::Impl {
     }
   }
 
+  // Unbinds whatever context is current on this thread.
+  static void ReleaseCurrent() { OSMesaMakeCurrent(nullptr, nullptr, 0, 0, 0); }
+
+  // Makes the context current for one call and unbinds it on the way out, also on a throw.
+  // No context stays current on a thread between calls: a thread pool may outlive the
+  // renderer, and Mesa touches a thread's current context when that thread binds the next
+  // one, so a context destroyed elsewhere while still current there crashed a later renderer.
+  class CurrentScope {
+   public:
+    explicit CurrentScope(Impl* impl) { impl->MakeCurrent(); }
+    ~CurrentScope() { ReleaseCurrent(); }
+    CurrentScope(const CurrentScope&) = delete;
+    CurrentScope& operator=(const CurrentScope&) = delete;
+  };
+
   void CheckGlError(const char* where) {
     const GLenum error = gl.GetError();
     if (error != GL_NO_ERROR) {
@@ -407,6 +422,7 @@ struct GlRenderer::Impl {
       if (vertex_array != 0) gl.DeleteVertexArrays(1, &vertex_array);
       if (program != 0) gl.DeleteProgram(program);
     }
+    ReleaseCurrent();
     OSMesaDestroyContext(context);
     context = nullptr;
   }
@@ -442,7 +458,7 @@ GlRenderer::GlRenderer(const Mesh& mesh, const GlRendererOptions& options)
         "OSMesa/llvmpipe, Debian package libosmesa6)");
   }
   try {
-    impl_->MakeCurrent();
+    Impl::CurrentScope current(impl_.get());
     impl_->gl.Load();
     Impl& impl = *impl_;
     impl.gl.GetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &impl.max_size);
@@ -480,7 +496,7 @@ GlImage GlRenderer::Render(const Camera& camera, const Eigen::Isometry3d& cam_fr
   }
   Impl& impl = *impl_;
   const GlFunctions& gl = impl.gl;
-  impl.MakeCurrent();
+  Impl::CurrentScope current(&impl);
   impl.EnsureFramebuffer(camera.width, camera.height);
 
   gl.BindFramebuffer(GL_FRAMEBUFFER, impl.framebuffer);
