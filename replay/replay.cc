@@ -344,13 +344,6 @@ std::string EstimateStatusName(int8_t status) {
   return "unknown(" + std::to_string(status) + ")";
 }
 
-double Percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  const double rank = std::clamp(q, 0.0, 1.0) * static_cast<double>(values.size() - 1);
-  return values[static_cast<size_t>(std::lround(rank))];
-}
-
 ReplayReport RunReplay(const ReplayOptions& options, FrameLogReader* reader, lcm::LCM* lcm,
                        int64_t total_frames, const ReplayProgressCallback& progress) {
   const std::string bad = options.Check();

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "core/stats.h"
 #include "eval/bop_csv.h"
 #include "g6d/pose_array_t.hpp"
 #include "g6d/rgbd_frame_t.hpp"
@@ -156,8 +157,5 @@ std::string ReplaySummaryJson(const ReplayOptions& options, const FrameLogStats&
 /// (w, x, y, z) of cam_from_object, and the frame's latency_s and service total_s. Failed
 /// estimates are included; frames rejected as a whole or never answered give no line.
 std::string EstimatesJsonLines(const std::vector<ReplayedFrame>& frames);
-
-/// The nearest-rank percentile (q in [0, 1]) of values; 0 for none.
-double Percentile(std::vector<double> values, double q);
 
 }  // namespace g6d

@@ -28,6 +28,7 @@
 #include <thread>
 
 #include "core/executor.h"
+#include "core/stats.h"
 #include "g6d/pose_array_t.hpp"
 #include "g6d/service_status_t.hpp"
 #include "service/answer.h"
@@ -133,9 +134,6 @@ class Service {
   Clock::time_point last_reject_log_;
   int64_t unlogged_rejects_ = 0;
 };
-
-/// Percentile `q` in [0, 1] of `values` (nearest rank); 0 for an empty set.
-double Percentile(std::vector<double> values, double q);
 
 /// Escapes regular-expression characters: LCM subscribes by regex, channels are literal.
 std::string LcmChannelRegex(const std::string& channel);

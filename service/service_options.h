@@ -30,9 +30,12 @@ struct ServiceOptions {
   /// (or when the scheduler takes them) are dropped and counted as stale, milliseconds;
   /// 0 = no age limit (e.g. for replayed logs with old timestamps).
   double max_age_ms = 0.0;
-  /// LCM's per-subscription queue capacity for the input channel, messages. Small on
-  /// purpose: the handler only decodes, and the mailbox keeps just the latest frame.
-  int subscription_queue = 2;
+  /// LCM's per-subscription queue capacity for the input channel, messages: about one
+  /// second at 30 Hz. LCM drops a message silently (counted nowhere) when its subscription
+  /// queue is full, which happened with a capacity of 2 when decoding on a loaded machine
+  /// took longer than two frame periods (soak benchmark). Freshness is the mailbox's job:
+  /// it keeps only the latest decoded frame and counts the ones it replaces.
+  int subscription_queue = 30;
   double status_period_s = 1.0;  ///< period of service_status_t, seconds
   int latency_window = 300;      ///< frames in the latency p50/p95 of the status
   /// On SIGINT/SIGTERM, how long to let the solver calls in flight finish before the

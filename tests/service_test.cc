@@ -7,12 +7,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <limits>
 #include <memory>
-#include <random>
 #include <string>
 #include <vector>
 
+#include "bad_frames.h"
 #include "eval/metrics.h"
 #include "service_test_util.h"
 
@@ -143,130 +142,18 @@ TEST_F(ServiceTest, AnswersWithPosesWithinAddTenthDiameter) {
 
 // ---- Bad input ------------------------------------------------------------------------
 
-/// One kind of bad message and what its answer must say.
-struct BadCase {
-  std::string name;
-  int8_t frame_status;         ///< expected pose_array_t status
-  int8_t estimate_status;      ///< expected status of the single estimate (frame OK only)
-  std::string words;           ///< must appear in the frame or estimate message
-  bool seq_known;              ///< false: the answer carries seq -1
-  std::vector<uint8_t> bytes;  ///< the LCM message as published
-};
-
-std::vector<uint8_t> Encode(const rgbd_frame_t& frame) {
-  std::vector<uint8_t> bytes(static_cast<size_t>(frame.getEncodedSize()));
-  frame.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
-  return bytes;
-}
-
-/// Every kind of bad input of the issue, built from a good frame with sequence number `seq`.
-std::vector<BadCase> MakeBadCases(const test::SyntheticView& view, int64_t seq) {
-  const int8_t kOk = pose_array_t::STATUS_OK, kBad = pose_array_t::STATUS_BAD_FRAME;
-  const rgbd_frame_t good = test::MakeRgbdFrame(view, seq, test::kBoxId);
-  std::vector<BadCase> cases;
-  auto add = [&](const std::string& name, const rgbd_frame_t& frame, const std::string& words,
-                 int8_t frame_status = pose_array_t::STATUS_BAD_FRAME, int8_t estimate_status = 0) {
-    cases.push_back({name, frame_status, estimate_status, words, true, Encode(frame)});
-  };
-  rgbd_frame_t f = good;
-  f.color.data.resize(f.color.data.size() - 7);
-  f.color.size = static_cast<int32_t>(f.color.data.size());
-  add("payload size mismatch", f, "color: payload");
-  f = good;
-  f.color.pixel_format = 42;
-  add("unknown pixel format", f, "color: pixel format unknown(42)");
-  f = good;
-  f.depth.compression = 9;
-  add("unknown compression", f, "depth: unknown compression 9");
-  f = good;
-  for (size_t i = f.depth.data.size() / 3; i < f.depth.data.size(); i += 11)
-    f.depth.data[i] ^= 0xA5;
-  add("corrupted zstd", f, "depth: corrupted zstd");
-  f = good;
-  f.color = EncodeImage(view.rgb, image_t::FORMAT_RGB8, image_t::COMPRESSION_PNG);
-  for (size_t i = f.color.data.size() / 2; i < f.color.data.size(); i += 97)
-    f.color.data[i] ^= 0x3C;
-  add("corrupted PNG", f, "color: corrupted PNG");
-  f = good;
-  f.color = EncodeImage(view.rgb, image_t::FORMAT_RGB8, image_t::COMPRESSION_JPEG);
-  f.color.data.resize(f.color.data.size() / 2);
-  f.color.size = static_cast<int32_t>(f.color.data.size());
-  add("corrupted JPEG", f, "color: corrupted JPEG");
-  f = good;
-  {
-    cv::Mat small_depth(240, 320, CV_16UC1, cv::Scalar(700));
-    f.depth = EncodeImage(small_depth, image_t::FORMAT_DEPTH_U16, image_t::COMPRESSION_ZSTD);
-  }
-  add("depth and colour sizes differ", f, "depth: size 320x240 differs from color 640x480");
-  f = good;
-  f.fx = 0.0;
-  add("zero focal length", f, "intrinsics: fx");
-  f = good;
-  f.fy = -500.0;
-  add("negative focal length", f, "intrinsics: fy");
-  f = good;
-  f.cx = std::numeric_limits<double>::quiet_NaN();
-  add("NaN principal point", f, "intrinsics: cx");
-  f = good;
-  f.instances[0].label = 2;  // the label image holds label 1 only
-  add("label named by no instance", f, "labels: label 1");
-  f = good;
-  f.instances[0].label = 5;
-  f.labels = EncodeImage(cv::Mat::zeros(480, 640, CV_8UC1), image_t::FORMAT_LABEL_U8,
-                         image_t::COMPRESSION_ZSTD);
-  add("instance label without pixels", f, "label 5 has no pixels", kOk,
-      pose_estimate_t::STATUS_BAD_INPUT);
-  f = good;
-  f.instances[0].object_id = "obj_999999";
-  add("unknown object id", f, "no template cache for object id 'obj_999999'", kOk,
-      pose_estimate_t::STATUS_UNKNOWN_OBJECT);
-  f = good;
-  f.color.width = 100000;
-  f.color.row_stride = 300000;
-  f.depth.width = f.labels.width = 100000;
-  add("huge declared image size", f, "too large");
-  {
-    // A byte array whose declared length exceeds the message (lcm-gen would allocate it).
-    std::vector<uint8_t> bytes = Encode(good);
-    const size_t color_size_offset =
-        8 + 16 + (4 + good.camera_id.size() + 1) + (4 + good.source.size() + 1) + 8 + 40 + 14;
-    const uint32_t huge = 0x7FFFFFF0u;
-    for (int i = 0; i < 4; ++i)
-      bytes[color_size_offset + i] = static_cast<uint8_t>(huge >> (24 - 8 * i));
-    cases.push_back({"huge declared payload size", kBad, 0, "color.size declares", true, bytes});
-    // A truncated message: fingerprint and seq intact, body cut.
-    std::vector<uint8_t> truncated = Encode(good);
-    truncated.resize(truncated.size() / 2);
-    cases.push_back(
-        {"truncated message", kBad, 0, "did not decode as g6d.rgbd_frame_t", true, truncated});
-  }
-  {
-    // Another LCM type on the channel (fingerprint mismatch), and plain garbage.
-    pose_array_t other{};
-    other.seq = seq;
-    std::vector<uint8_t> bytes(static_cast<size_t>(other.getEncodedSize()));
-    other.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
-    cases.push_back(
-        {"fingerprint mismatch", kBad, 0, "did not decode as g6d.rgbd_frame_t", false, bytes});
-    std::vector<uint8_t> garbage(5000);
-    std::mt19937 rng(static_cast<uint32_t>(seq));
-    for (uint8_t& b : garbage) b = static_cast<uint8_t>(rng());
-    cases.push_back({"garbage", kBad, 0, "did not decode as g6d.rgbd_frame_t", false, garbage});
-  }
-  return cases;
-}
-
-/// Writes `seq` into an encoded rgbd_frame_t (big-endian int64 after fingerprint and utime).
-void PatchSeq(std::vector<uint8_t>* bytes, int64_t seq) {
-  for (int i = 0; i < 8; ++i)
-    (*bytes)[16 + i] = static_cast<uint8_t>(static_cast<uint64_t>(seq) >> (56 - 8 * i));
-}
+// The kinds of bad input and their expected answers are in bad_frames.h (shared with the
+// soak benchmark).
+using test::BadCase;
+using test::MakeBadCases;
+using test::PatchSeq;
 
 TEST_F(ServiceTest, HundredGoodAndHundredBadFramesInterleaved) {
   StartService(Options("mixed"));
   // The bad messages of every view, built once; each send patches its sequence number in.
   std::vector<std::vector<BadCase>> bad_cases;
-  for (int v = 0; v < kNumViews; ++v) bad_cases.push_back(MakeBadCases(scene_->views[v], 0));
+  for (int v = 0; v < kNumViews; ++v)
+    bad_cases.push_back(MakeBadCases(test::MakeRgbdFrame(scene_->views[v], 0, test::kBoxId)));
   const size_t num_cases = bad_cases[0].size();
   int good_results = 0, error_results = 0, frame_rejects = 0;
   std::vector<int> seen_cases(num_cases, 0);
