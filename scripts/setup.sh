@@ -2,7 +2,9 @@
 # Installs every Debian package g6d needs (idempotent), then configures and builds.
 #   bash scripts/setup.sh            # packages + Release build in ./build
 #   G6D_SKIP_APT=1 bash scripts/setup.sh   # build only
+#   G6D_SKIP_BUILD=1 bash scripts/setup.sh # packages only
 #   BUILD_DIR=build-x CMAKE_ARGS="-DG6D_SANITIZE=thread" bash scripts/setup.sh
+#   BUILD_TARGETS="service_test executor_test" bash scripts/setup.sh   # only these targets
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -14,6 +16,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libspdlog-dev libcli11-dev nlohmann-json3-dev libyaml-cpp-dev
   python3
+  clang libclang-rt-14-dev
 )
 
 if [[ "${G6D_SKIP_APT:-0}" != "1" ]]; then
@@ -33,10 +36,17 @@ if [[ "${G6D_SKIP_APT:-0}" != "1" ]]; then
   fi
 fi
 
+if [[ "${G6D_SKIP_BUILD:-0}" == "1" ]]; then exit 0; fi
+
 BUILD_DIR="${BUILD_DIR:-build}"
 JOBS="${JOBS:-2}"
+# ccache hits across clones and build folders: paths below the checkout count as relative.
+export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$PWD}" CCACHE_NOHASHDIR="${CCACHE_NOHASHDIR:-true}"
 echo "[setup] configuring ${BUILD_DIR}"
 cmake -S . -B "${BUILD_DIR}" -DCMAKE_BUILD_TYPE="${BUILD_TYPE:-Release}" ${CMAKE_ARGS:-} >/dev/null
-echo "[setup] building with -j${JOBS}"
-cmake --build "${BUILD_DIR}" -j"${JOBS}"
+# BUILD_TARGETS="a b" builds only those targets (the sanitizer suites use it).
+TARGET_ARGS=()
+for t in ${BUILD_TARGETS:-}; do TARGET_ARGS+=(--target "$t"); done
+echo "[setup] building with -j${JOBS}${BUILD_TARGETS:+ (targets: ${BUILD_TARGETS})}"
+cmake --build "${BUILD_DIR}" -j"${JOBS}" "${TARGET_ARGS[@]}"
 echo "[setup] done: binaries in ${BUILD_DIR}/"

@@ -597,6 +597,16 @@ DecodedFrame DecodeFrame(const rgbd_frame_t& message, const DecodeLimits& limits
     G6D_THROW("depth_scale_m must be finite and > 0 for DEPTH_U16 depth (got "
               << message.depth_scale_m << ")");
   }
+  // Depth becomes float metres: the largest raw value times the scale must stay a finite
+  // float, or a huge scale would turn every measurement into infinity. FLT_MAX / 2^16 is
+  // exact in float, so 65535 units times it stays finite whatever convertTo() rounds.
+  constexpr double kMaxDepthScaleM = std::numeric_limits<float>::max() / 65536.0;
+  if (message.depth.pixel_format == image_t::FORMAT_DEPTH_U16 &&
+      message.depth_scale_m > kMaxDepthScaleM) {
+    G6D_THROW("depth_scale_m " << message.depth_scale_m
+                               << " is too large: depth in metres (up to 65535 x depth_scale_m) "
+                               << "must fit a float (at most " << kMaxDepthScaleM << ")");
+  }
   for (const auto& [plane, name] : {std::pair<const image_t*, const char*>{&message.depth, "depth"},
                                     {&message.labels, "labels"}}) {
     if (plane->width != message.color.width || plane->height != message.color.height) {

@@ -116,7 +116,8 @@ struct DecodedFrame {
 };
 
 /// Validates and decodes a whole frame. Throws g6d::Error naming the field when the frame
-/// as a whole is unusable: bad intrinsics ("intrinsics: fx must be ..."), bad depth scale,
+/// as a whole is unusable: bad intrinsics ("intrinsics: fx must be ..."), bad depth scale
+/// (not finite, <= 0, or so large that 65535 x depth_scale_m overflows a float),
 /// a plane that does not decode or has the wrong format ("color: ...", "depth: ...",
 /// "labels: ..."), planes of different sizes, too many instances, or a label value in
 /// the label image that no instance names ("labels: label 7 (1234 pixels) is named by no

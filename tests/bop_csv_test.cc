@@ -188,6 +188,20 @@ TEST(ReadBopCsv, DifferentTimesInOneImageNameBothLines) {
   EXPECT_THAT(message, HasSubstr("results.csv:3: time 0.2 differs from 0.1 on line 1"));
 }
 
+// Found in review while hardening for fuzzing (input in
+// tests/fuzz/regressions/bop_csv/nul-inside-a-number): the number parsers stop at a NUL
+// byte, so "0.5<NUL>junk" was read as 0.5.
+TEST(ReadBopCsv, FuzzNulByteInsideAFieldIsAnError) {
+  const std::string line = "2,8,5,0.5,1 0 0 0 1 0 0 0 1,0 0 1000,0.1\n";
+  EXPECT_EQ(FromCsv(line).size(), 1u);
+  for (size_t position : {4u, 6u, 11u, 30u, 39u}) {  // in score, R, t and time
+    std::string damaged = line;
+    damaged.insert(position, std::string(1, '\0') + "junk");
+    EXPECT_THAT(ReadError(damaged), HasSubstr("results.csv:1: line contains a NUL byte"))
+        << "NUL at " << position;
+  }
+}
+
 TEST(ReadBopCsv, MissingFileThrowsNamingPath) {
   try {
     ReadBopCsv("/nonexistent_dir_g6d/results.csv");

@@ -409,5 +409,98 @@ TEST(LoadBopDataset, MalformedTargetsNameFile) {
               AllOf(HasSubstr("test_targets_bop19.json"), HasSubstr("[0].obj_id' is missing")));
 }
 
+// The text entry points name the source and field as the loaders name the file.
+TEST(ParseBopSceneFrames, ParsesTextsAndNamesSources) {
+  const std::string camera = R"({"8": {"cam_K": [500, 0, 320, 0, 510, 240, 0, 0, 1]},
+                                 "3": {"cam_K": [500, 0, 320, 0, 510, 240, 0, 0, 1], "depth_scale": 0.1}})";
+  const std::string gt =
+      R"({"3": [{"cam_R_m2c": [1, 0, 0, 0, 1, 0, 0, 0, 1], "cam_t_m2c": [0, 0, 800], "obj_id": 5}]})";
+  const std::string info = R"({"3": [{"px_count_all": 10, "visib_fract": 0.5}]})";
+  const std::vector<BopFrame> frames = ParseBopSceneFrames(camera, gt, info, 640, 480);
+  ASSERT_EQ(frames.size(), 2u);
+  EXPECT_EQ(frames[0].im_id, 3);
+  EXPECT_EQ(frames[0].depth_scale, 0.1);
+  EXPECT_EQ(frames[0].camera.width, 640);
+  EXPECT_EQ(frames[0].camera.fy, 510.0);
+  ASSERT_EQ(frames[0].gt.size(), 1u);
+  EXPECT_NEAR(frames[0].gt[0].cam_from_object.translation().z(), 0.8, 1e-12);
+  ASSERT_TRUE(frames[0].gt[0].info.has_value());
+  EXPECT_EQ(frames[0].gt[0].info->px_count_all, 10);
+  EXPECT_TRUE(frames[1].gt.empty());
+  BopSceneSources sources;
+  sources.gt = "my_gt.json";
+  EXPECT_THAT(
+      ErrorOf([&] { ParseBopSceneFrames(camera, "{\"3\": 5}", std::nullopt, 0, 0, sources); }),
+      AllOf(HasSubstr("my_gt.json: field '3'"), HasSubstr("expected a list")));
+  EXPECT_THAT(ErrorOf([&] { ParseBopCamera(R"({"fx": 1})", "cam text"); }),
+              HasSubstr("cam text: field 'fy' is missing"));
+  const std::map<int, BopObjectInfo> objects =
+      ParseBopModelsInfo(R"({"5": {"diameter": 120}})", "info text", "/models");
+  ASSERT_EQ(objects.count(5), 1u);
+  EXPECT_EQ(objects.at(5).mesh_path, "/models/obj_000005.ply");
+  EXPECT_NEAR(objects.at(5).diameter_m, 0.12, 1e-12);
+}
+
+// Found in review while hardening for fuzzing (input in
+// tests/fuzz/regressions/bop_json/deeply-nested-value): error messages held value.dump(), which
+// recurses once per nesting level, so a wrong-typed value nested 10^5 deep (which the parser
+// accepts without recursing) overflowed the stack; a huge value also made a huge message. Now a
+// message names only the type and size of a list or object.
+TEST(ParseBopTargets, FuzzDeeplyNestedValueInErrorMessage) {
+  const int depth = 200000;
+  const std::string text = R"([{"im_id": 3, "inst_count": 1, "obj_id": 1, "scene_id": )" +
+                           std::string(depth, '[') + std::string(depth, ']') + "}]";
+  const std::string message = ErrorOf([&] { ParseBopTargets(text, "targets"); });
+  EXPECT_THAT(message, HasSubstr("targets: field '[0].scene_id': expected an integer, got a list "
+                                 "of 1 elements"));
+  EXPECT_LT(message.size(), 200u);
+  std::string long_list = "[1";
+  for (int i = 1; i < 5000; ++i) long_list += ",1";
+  const std::string long_mesh = R"({"1": {"diameter": 10, "mesh": )" + long_list + "]}}";
+  const std::string mesh_message = ErrorOf([&] { ParseBopModelsInfo(long_mesh, "info", "m"); });
+  EXPECT_THAT(mesh_message,
+              HasSubstr("expected a non-empty path string, got a list of 5000 elements"));
+  EXPECT_LT(mesh_message.size(), 200u);
+  // A long string is cut, and cutting inside a UTF-8 sequence must not make dump() throw.
+  const std::string gt_info = R"({"1": [{"bbox_obj": [1, 2, 3, ")" + std::string(39, 'x') +
+                              "\u00e9" + std::string(100, 'y') + R"("]}]})";
+  const std::string camera = R"({"1": {"cam_K": [1, 0, 0, 0, 1, 0, 0, 0, 1]}})";
+  const std::string gt =
+      R"({"1": [{"cam_R_m2c": [1, 0, 0, 0, 1, 0, 0, 0, 1], "cam_t_m2c": [0, 0, 1], "obj_id": 1}]})";
+  const std::string cut_message = ErrorOf([&] { ParseBopSceneFrames(camera, gt, gt_info, 0, 0); });
+  EXPECT_THAT(cut_message, AllOf(HasSubstr("bbox_obj[3]': expected an integer, got string \""),
+                                 HasSubstr("... (141 bytes)")));
+}
+
+// Found in review while hardening for fuzzing (input in
+// tests/fuzz/regressions/bop_json/integer-beyond-int): get<int>() wrapped integers outside
+// int silently (4294967299 became 3).
+TEST(ParseBopTargets, FuzzIntegerBeyondIntIsAnError) {
+  EXPECT_THAT(
+      ErrorOf([&] {
+        ParseBopTargets(R"([{"im_id": 4294967299, "inst_count": 1, "obj_id": 1, "scene_id": 2}])",
+                        "targets");
+      }),
+      AllOf(HasSubstr("targets: field '[0].im_id'"), HasSubstr("4294967299 is out of range")));
+  EXPECT_THAT(ErrorOf([&] {
+                ParseBopTargets(
+                    R"([{"im_id": -2147483649, "inst_count": 1, "obj_id": 1, "scene_id": 2}])",
+                    "t");
+              }),
+              HasSubstr("-2147483649 is out of range"));
+  EXPECT_THAT(ErrorOf([&] {
+                ParseBopCamera(
+                    R"({"fx": 1, "fy": 1, "cx": 0, "cy": 0, "width": 18446744073709551615,
+                                   "height": 480})",
+                    "camera");
+              }),
+              AllOf(HasSubstr("camera: field 'width'"), HasSubstr("out of range")));
+  const std::vector<BopTarget> targets = ParseBopTargets(
+      R"([{"im_id": 2147483647, "inst_count": 1, "obj_id": -2147483648, "scene_id": 0}])", "t");
+  ASSERT_EQ(targets.size(), 1u);
+  EXPECT_EQ(targets[0].im_id, 2147483647);
+  EXPECT_EQ(targets[0].obj_id, -2147483648);
+}
+
 }  // namespace
 }  // namespace g6d

@@ -355,6 +355,13 @@ TEST(TemplateCache, HugeDeclaredSizesAreRefusedWithoutAllocating) {
   ResealHeader(&absurd);
   ExpectRefused(absurd, "body size");
 
+  // A header declaring just over the 256 MiB body limit: refused before the reader
+  // allocates the declared size (a 64 KB zstd bomb could otherwise cost 2 GiB).
+  std::string bomb = file;
+  StoreU64((uint64_t{256} << 20) + 1, &bomb, 16);
+  ResealHeader(&bomb);
+  ExpectRefused(bomb, "exceeds the limit of 268435456 bytes");
+
   // Trailing garbage after the body.
   ExpectRefused(file + "junk", "corrupted");
 }
@@ -385,6 +392,92 @@ TEST(TemplateCache, ResealedGarbageBodiesNeverCrash) {
   // Most damage lands in data (descriptors, masks, images) a reader cannot tell from valid
   // values; truncations are always caught.
   EXPECT_GE(refused, 100);
+}
+
+TEST(ParseTemplateCacheBody, ParsesTheBodyOfAWrittenCache) {
+  const TemplateBank bank = MakeBank(3, 13);
+  const std::string body = BodyOf(EncodedBank(bank, "cache_body"));
+  ExpectSameBank(bank, ParseTemplateCacheBody(body, "body"));
+  try {
+    ParseTemplateCacheBody(body.substr(0, body.size() - 1), "cut body");
+    ADD_FAILURE() << "a truncated body was accepted";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("cut body: truncated"));
+  }
+}
+
+// The body bytes of one template: identity pose, a mask of `mask_side` squared pixels in a
+// single run of zeros, no thumbnail, no keypoints (148 bytes).
+std::string OneRunTemplate(int32_t mask_side) {
+  std::string bytes;
+  auto append = [&](const void* data, size_t size) {
+    bytes.append(static_cast<const char*>(data), size);  // little-endian host assumed
+  };
+  for (int i = 0; i < 12; ++i) {
+    const double value = (i < 9 && i % 4 == 0) ? 1.0 : (i == 11 ? 0.5 : 0.0);
+    append(&value, 8);
+  }
+  for (double value : {1.0, 0.0, 0.0}) append(&value, 8);  // crop scale and offset
+  const uint32_t pixels = static_cast<uint32_t>(mask_side) * static_cast<uint32_t>(mask_side);
+  for (uint32_t value : {static_cast<uint32_t>(mask_side), static_cast<uint32_t>(mask_side),
+                         uint32_t{1}, pixels, uint32_t{0}, uint32_t{0}, uint32_t{0}}) {
+    append(&value, 4);
+  }
+  return bytes;
+}
+
+// `body` (of a bank without templates, ending with the template count) declaring
+// `count` copies of `one_template`.
+std::string WithTemplates(std::string body, uint32_t count, const std::string& one_template) {
+  body.resize(body.size() - 4);
+  body.append(reinterpret_cast<const char*>(&count), 4);
+  for (uint32_t i = 0; i < count; ++i) body += one_template;
+  return body;
+}
+
+// Fuzz hardening (input tests/fuzz/regressions/template_cache/mask-amplification, crafted
+// while checking huge declared sizes; it drove the fuzz target over its 2 GB limit): masks
+// are run-length coded, so 148 bytes declared a 8192 x 8192 mask and a 4.6 KB body made
+// the reader allocate 1.8 GB. Masks must now be crop.size_px squares.
+TEST(ParseTemplateCacheBody, FuzzRunLengthMaskOfAnySizeIsRefused) {
+  const TemplateBank bank = MakeBank(0, 14);  // crop.size_px 128
+  const std::string body = BodyOf(EncodedBank(bank, "cache_mask_size"));
+  EXPECT_NO_THROW(ParseTemplateCacheBody(WithTemplates(body, 2, OneRunTemplate(128)), "ok"));
+  try {
+    ParseTemplateCacheBody(WithTemplates(body, 28, OneRunTemplate(8192)), "amplified");
+    ADD_FAILURE() << "a 8192 x 8192 mask was accepted with crop.size_px 128";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("template mask has a bad size 8192x8192 (expected 128x128"));
+  }
+}
+
+// The same amplification within the size rule: 200 masks of 4096 x 4096 (crop.size_px may
+// be 4096) are 3.4 GB; refused from the template count, before any mask is allocated.
+TEST(ParseTemplateCacheBody, FuzzMasksOverTheTotalLimitAreRefusedBeforeAllocating) {
+  TemplateBank bank = MakeBank(0, 15);
+  bank.options.crop.size_px = 4096;
+  const std::string body = BodyOf(EncodedBank(bank, "cache_mask_budget"));
+  try {
+    ParseTemplateCacheBody(WithTemplates(body, 200, OneRunTemplate(4096)), "budget");
+    ADD_FAILURE() << "3.4 GB of masks were accepted";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("bytes of masks and thumbnails, more than the limit"));
+  }
+}
+
+TEST(TemplateCache, MaskOrThumbnailOfAnotherSizeIsNotWritten) {
+  TemplateBank bank = MakeBank(2, 16);
+  bank.templates[1].mask = cv::Mat::zeros(64, 64, CV_8UC1);  // crop.size_px is 128
+  const std::string dir = test::TempDir("cache_wrong_mask");
+  try {
+    WriteTemplateCache(bank, dir + "/obj.g6dcache");
+    ADD_FAILURE() << "a 64 x 64 mask was written with crop.size_px 128";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("mask has a bad size 64x64 (expected 128x128"));
+  }
+  bank = MakeBank(2, 16);
+  bank.templates[0].thumbnail = cv::Mat::zeros(16, 16, CV_8UC1);  // thumbnail_size_px is 32
+  EXPECT_THROW(WriteTemplateCache(bank, dir + "/obj.g6dcache"), Error);
 }
 
 TEST(TemplateCache, UnwritableTargetThrows) {

@@ -355,6 +355,19 @@ TEST(DecodeFrame, RefusesBadIntrinsics) {
   ExpectError([&] { DecodeFrame(message); }, {"depth_scale_m"});
 }
 
+// Found by fuzzing (tests/fuzz/regressions/frame_message/huge-depth-scale): a finite but
+// huge depth_scale_m made every DEPTH_U16 depth +inf, although DecodeFrame promises finite
+// depth.
+TEST(DecodeFrame, FuzzHugeDepthScaleOverflowsFloat) {
+  rgbd_frame_t message = MakeFrame();
+  message.depth_scale_m = 2.65452e+233;
+  ExpectError([&] { DecodeFrame(message); }, {"depth_scale_m", "too large", "float"});
+  message.depth_scale_m = std::numeric_limits<float>::max() / 65536.0;  // the largest allowed
+  const DecodedFrame decoded = DecodeFrame(message);
+  EXPECT_TRUE(std::isfinite(decoded.frame.depth.at<float>(5, 5)));
+  EXPECT_GT(decoded.frame.depth.at<float>(5, 5), 0.0f);
+}
+
 TEST(DecodeFrame, RefusesPlanesOfDifferentSizes) {
   rgbd_frame_t message = MakeFrame();
   message.depth = EncodeImage(cv::Mat(kHeight / 2, kWidth / 2, CV_16UC1, cv::Scalar(800)),

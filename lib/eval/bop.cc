@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -29,15 +30,25 @@ std::string SixDigits(int value) {
   return buffer;
 }
 
-Json ReadJson(const fs::path& path) {
-  std::ifstream stream(path);
+// The whole text of a file; throws naming the path when it cannot be opened or read.
+std::string ReadText(const fs::path& path) {
+  std::ifstream stream(path, std::ios::binary);
   if (!stream) G6D_THROW("cannot open " << path.string());
+  std::ostringstream text;
+  text << stream.rdbuf();
+  if (stream.bad()) G6D_THROW("cannot read " << path.string());
+  return text.str();
+}
+
+Json ParseJson(const std::string& text, const std::string& source) {
   try {
-    return Json::parse(stream);
+    return Json::parse(text);
   } catch (const Json::exception& e) {
-    G6D_THROW("malformed JSON in " << path.string() << ": " << e.what());
+    G6D_THROW("malformed JSON in " << source << ": " << e.what());
   }
 }
+
+Json ReadJson(const fs::path& path) { return ParseJson(ReadText(path), path.string()); }
 
 // A place in a JSON file for error messages: "<file>: <field path>".
 struct Where {
@@ -58,6 +69,28 @@ std::ostream& operator<<(std::ostream& out, const Where& where) {
 
 const char* TypeName(const Json& value) { return value.type_name(); }
 
+// A JSON value for an error message: its type and, for a scalar, its text (strings cut
+// after 40 bytes). Never the dump of a list or object: a message must not grow with the
+// input, and dump() recurses once per nesting level, so a deeply nested value (which
+// the parser accepts, it does not recurse) would overflow the stack.
+std::string Describe(const Json& value) {
+  constexpr size_t kMaxStringBytes = 40;
+  // replace: a string cut inside a UTF-8 sequence must not make dump() throw.
+  const auto dump = [](const Json& v) {
+    return v.dump(-1, ' ', false, Json::error_handler_t::replace);
+  };
+  if (value.is_array()) return "a list of " + std::to_string(value.size()) + " elements";
+  if (value.is_object()) return "an object of " + std::to_string(value.size()) + " members";
+  if (value.is_string()) {
+    const std::string& text = value.get_ref<const std::string&>();
+    if (text.size() > kMaxStringBytes) {
+      return "string " + dump(Json(text.substr(0, kMaxStringBytes))) + "... (" +
+             std::to_string(text.size()) + " bytes)";
+    }
+  }
+  return std::string(TypeName(value)) + " " + dump(value);
+}
+
 void ExpectObject(const Json& value, const Where& where) {
   if (!value.is_object()) G6D_THROW(where << ": expected a JSON object, got " << TypeName(value));
 }
@@ -77,8 +110,18 @@ double GetNumber(const Json& value, const Where& where) {
 }
 
 int GetInt(const Json& value, const Where& where) {
-  if (!value.is_number_integer()) {
-    G6D_THROW(where << ": expected an integer, got " << TypeName(value) << " " << value.dump());
+  if (!value.is_number_integer())
+    G6D_THROW(where << ": expected an integer, got " << Describe(value));
+  // get<int>() would silently wrap a value outside int (2^32 + 5 -> 5).
+  const bool in_range =
+      value.is_number_unsigned()
+          ? value.get<uint64_t>() <= static_cast<uint64_t>(std::numeric_limits<int>::max())
+          : value.get<int64_t>() >= std::numeric_limits<int>::min() &&
+                value.get<int64_t>() <= std::numeric_limits<int>::max();
+  if (!in_range) {
+    G6D_THROW(where << ": integer " << Describe(value) << " is out of range (expected "
+                    << std::numeric_limits<int>::min() << ".." << std::numeric_limits<int>::max()
+                    << ")");
   }
   return value.get<int>();
 }
@@ -144,7 +187,7 @@ BopObjectInfo ParseObjectInfo(int obj_id, const Json& entry, const fs::path& mod
   if (entry.contains("mesh")) {
     const Json& value = entry["mesh"];
     if (!value.is_string() || value.get<std::string>().empty()) {
-      G6D_THROW(where.Key("mesh") << ": expected a non-empty path string, got " << value.dump());
+      G6D_THROW(where.Key("mesh") << ": expected a non-empty path string, got " << Describe(value));
     }
     mesh = value.get<std::string>();
   }
@@ -152,7 +195,7 @@ BopObjectInfo ParseObjectInfo(int obj_id, const Json& entry, const fs::path& mod
   if (entry.contains("units")) {
     const Json& value = entry["units"];
     if (!value.is_string()) {
-      G6D_THROW(where.Key("units") << ": expected \"mm\" or \"m\", got " << value.dump());
+      G6D_THROW(where.Key("units") << ": expected \"mm\" or \"m\", got " << Describe(value));
     }
     try {
       info.mesh_units = ParseUnits(value.get<std::string>());
@@ -224,7 +267,7 @@ BopGtInfo ParseGtInfo(const Json& entry, const Where& where) {
     const Where field = where.Key(key);
     const Json& list = entry[key];
     if (!list.is_array() || list.size() != 4) {
-      G6D_THROW(field << ": expected a list of 4 integers, got " << list.dump());
+      G6D_THROW(field << ": expected a list of 4 integers, got " << Describe(list));
     }
     for (int i = 0; i < 4; ++i) (*out)[i] = GetInt(list[i], field.Index(i));
   };
@@ -290,15 +333,14 @@ const BopObjectInfo& BopDataset::Object(int obj_id) const {
   return it->second;
 }
 
-std::vector<BopTarget> LoadBopTargets(const std::string& path) {
-  if (!fs::exists(path)) G6D_THROW("BOP targets file " << path << " does not exist");
-  const Json json = ReadJson(path);
-  const Where where{path, ""};
+std::vector<BopTarget> ParseBopTargets(const std::string& json_text, const std::string& source) {
+  const Json json = ParseJson(json_text, source);
+  const Where where{source, ""};
   if (!json.is_array()) G6D_THROW(where << ": expected a list, got " << TypeName(json));
   std::vector<BopTarget> targets;
   targets.reserve(json.size());
   for (size_t i = 0; i < json.size(); ++i) {
-    const Where item{path, "[" + std::to_string(i) + "]"};
+    const Where item{source, "[" + std::to_string(i) + "]"};
     BopTarget target;
     target.scene_id = GetInt(Member(json[i], "scene_id", item), item.Key("scene_id"));
     target.im_id = GetInt(Member(json[i], "im_id", item), item.Key("im_id"));
@@ -307,6 +349,44 @@ std::vector<BopTarget> LoadBopTargets(const std::string& path) {
     targets.push_back(target);
   }
   return targets;
+}
+
+std::vector<BopTarget> LoadBopTargets(const std::string& path) {
+  if (!fs::exists(path)) G6D_THROW("BOP targets file " << path << " does not exist");
+  return ParseBopTargets(ReadText(path), path);
+}
+
+BopCameraInfo ParseBopCamera(const std::string& json_text, const std::string& source) {
+  const Json json = ParseJson(json_text, source);
+  const Where where{source, ""};
+  BopCameraInfo info;
+  Camera& camera = info.camera;
+  camera.fx = GetNumber(Member(json, "fx", where), where.Key("fx"));
+  camera.fy = GetNumber(Member(json, "fy", where), where.Key("fy"));
+  camera.cx = GetNumber(Member(json, "cx", where), where.Key("cx"));
+  camera.cy = GetNumber(Member(json, "cy", where), where.Key("cy"));
+  camera.width = GetInt(Member(json, "width", where), where.Key("width"));
+  camera.height = GetInt(Member(json, "height", where), where.Key("height"));
+  const std::string problem = camera.Check();
+  if (!problem.empty()) G6D_THROW(source << ": " << problem);
+  if (json.contains("depth_scale")) {
+    info.depth_scale = GetNumber(json["depth_scale"], where.Key("depth_scale"));
+  }
+  return info;
+}
+
+std::map<int, BopObjectInfo> ParseBopModelsInfo(const std::string& json_text,
+                                                const std::string& source,
+                                                const std::string& models_dir) {
+  const Json info_json = ParseJson(json_text, source);
+  ExpectObject(info_json, {source, ""});
+  std::map<int, BopObjectInfo> objects;
+  for (const auto& [key, entry] : info_json.items()) {
+    const Where where{source, key};
+    const int obj_id = ParseIdKey(key, {source, ""});
+    objects.emplace(obj_id, ParseObjectInfo(obj_id, entry, models_dir, where));
+  }
+  return objects;
 }
 
 BopDataset LoadBopDataset(const std::string& root, const std::string& split) {
@@ -318,34 +398,17 @@ BopDataset LoadBopDataset(const std::string& root, const std::string& split) {
 
   const fs::path camera_path = root_path / "camera.json";
   if (fs::exists(camera_path)) {
-    const Json json = ReadJson(camera_path);
-    const Where where{camera_path.string(), ""};
-    Camera camera;
-    camera.fx = GetNumber(Member(json, "fx", where), where.Key("fx"));
-    camera.fy = GetNumber(Member(json, "fy", where), where.Key("fy"));
-    camera.cx = GetNumber(Member(json, "cx", where), where.Key("cx"));
-    camera.cy = GetNumber(Member(json, "cy", where), where.Key("cy"));
-    camera.width = GetInt(Member(json, "width", where), where.Key("width"));
-    camera.height = GetInt(Member(json, "height", where), where.Key("height"));
-    const std::string problem = camera.Check();
-    if (!problem.empty()) G6D_THROW(camera_path.string() << ": " << problem);
-    if (json.contains("depth_scale")) {
-      dataset.camera_depth_scale = GetNumber(json["depth_scale"], where.Key("depth_scale"));
-    }
-    dataset.camera = camera;
+    const BopCameraInfo info = ParseBopCamera(ReadText(camera_path), camera_path.string());
+    dataset.camera = info.camera;
+    dataset.camera_depth_scale = info.depth_scale;
   }
 
   const fs::path models_dir = root_path / "models";
   const fs::path info_path = models_dir / "models_info.json";
   if (!fs::exists(info_path))
     G6D_THROW("BOP dataset " << root << ": " << info_path.string() << " is missing");
-  const Json info_json = ReadJson(info_path);
-  ExpectObject(info_json, {info_path.string(), ""});
-  for (const auto& [key, entry] : info_json.items()) {
-    const Where where{info_path.string(), key};
-    const int obj_id = ParseIdKey(key, {info_path.string(), ""});
-    dataset.objects.emplace(obj_id, ParseObjectInfo(obj_id, entry, models_dir, where));
-  }
+  dataset.objects =
+      ParseBopModelsInfo(ReadText(info_path), info_path.string(), models_dir.string());
 
   const fs::path targets_path = root_path / "test_targets_bop19.json";
   if (fs::exists(targets_path)) {
@@ -410,14 +473,26 @@ BopScene LoadBopScene(const std::string& root, int scene_id, const std::string& 
   for (const fs::path& required : {camera_file, gt_file}) {
     if (!fs::exists(required)) G6D_THROW("BOP scene file " << required.string() << " is missing");
   }
+  const std::string camera_text = ReadText(camera_file);
+  const std::string gt_text = ReadText(gt_file);
+  std::optional<std::string> info_text;
+  if (fs::exists(info_file)) info_text = ReadText(info_file);
+  scene.frames = ParseBopSceneFrames(camera_text, gt_text, info_text, width, height,
+                                     {camera_file.string(), gt_file.string(), info_file.string()});
+  return scene;
+}
 
-  const Json camera_json = ReadJson(camera_file);
-  ExpectObject(camera_json, {camera_file.string(), ""});
+std::vector<BopFrame> ParseBopSceneFrames(const std::string& camera_json_text,
+                                          const std::string& gt_json_text,
+                                          const std::optional<std::string>& gt_info_json_text,
+                                          int width, int height, const BopSceneSources& sources) {
+  const Json camera_json = ParseJson(camera_json_text, sources.camera);
+  ExpectObject(camera_json, {sources.camera, ""});
   std::map<int, BopFrame> frames;
   for (const auto& [key, entry] : camera_json.items()) {
-    const Where where{camera_file.string(), key};
+    const Where where{sources.camera, key};
     BopFrame frame;
-    frame.im_id = ParseIdKey(key, {camera_file.string(), ""});
+    frame.im_id = ParseIdKey(key, {sources.camera, ""});
     frame.camera = CameraFromK(GetNumbers(Member(entry, "cam_K", where), 9, where.Key("cam_K")));
     frame.camera.width = width;
     frame.camera.height = height;
@@ -431,14 +506,14 @@ BopScene LoadBopScene(const std::string& root, int scene_id, const std::string& 
     frames.emplace(frame.im_id, std::move(frame));
   }
 
-  const Json gt_json = ReadJson(gt_file);
-  ExpectObject(gt_json, {gt_file.string(), ""});
+  const Json gt_json = ParseJson(gt_json_text, sources.gt);
+  ExpectObject(gt_json, {sources.gt, ""});
   for (const auto& [key, list] : gt_json.items()) {
-    const Where where{gt_file.string(), key};
-    const int im_id = ParseIdKey(key, {gt_file.string(), ""});
+    const Where where{sources.gt, key};
+    const int im_id = ParseIdKey(key, {sources.gt, ""});
     const auto frame_it = frames.find(im_id);
     if (frame_it == frames.end()) {
-      G6D_THROW(where << ": image " << im_id << " has no entry in " << camera_file.string());
+      G6D_THROW(where << ": image " << im_id << " has no entry in " << sources.camera);
     }
     if (!list.is_array()) G6D_THROW(where << ": expected a list, got " << TypeName(list));
     for (size_t i = 0; i < list.size(); ++i) {
@@ -457,12 +532,12 @@ BopScene LoadBopScene(const std::string& root, int scene_id, const std::string& 
     }
   }
 
-  if (fs::exists(info_file)) {
-    const Json info_json = ReadJson(info_file);
-    ExpectObject(info_json, {info_file.string(), ""});
+  if (gt_info_json_text) {
+    const Json info_json = ParseJson(*gt_info_json_text, sources.gt_info);
+    ExpectObject(info_json, {sources.gt_info, ""});
     for (const auto& [key, list] : info_json.items()) {
-      const Where where{info_file.string(), key};
-      const int im_id = ParseIdKey(key, {info_file.string(), ""});
+      const Where where{sources.gt_info, key};
+      const int im_id = ParseIdKey(key, {sources.gt_info, ""});
       const auto frame_it = frames.find(im_id);
       const size_t expected = frame_it == frames.end() ? 0 : frame_it->second.gt.size();
       if (!list.is_array() || list.size() != expected) {
@@ -479,9 +554,10 @@ BopScene LoadBopScene(const std::string& root, int scene_id, const std::string& 
 
   // Every image of scene_camera.json is a frame; one without scene_gt.json entry (BOP
   // allows that) keeps an empty GT list.
-  scene.frames.reserve(frames.size());
-  for (auto& [im_id, frame] : frames) scene.frames.push_back(std::move(frame));
-  return scene;
+  std::vector<BopFrame> sorted;
+  sorted.reserve(frames.size());
+  for (auto& [im_id, frame] : frames) sorted.push_back(std::move(frame));
+  return sorted;
 }
 
 cv::Mat LoadBopRgb(const BopScene& scene, int im_id) {

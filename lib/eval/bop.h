@@ -80,6 +80,30 @@ struct BopTarget {
 /// is missing, malformed or a field is missing or not an integer.
 std::vector<BopTarget> LoadBopTargets(const std::string& path);
 
+/// LoadBopTargets() on the text of a targets file; `source` names it in error messages
+/// (as the path does for the loader). Every LoadBop*() reads its JSON files whole and hands
+/// the text to one of these Parse*() functions, so fuzzers and tests reach all the JSON
+/// parsing without files. Throws g6d::Error naming the source and the field.
+std::vector<BopTarget> ParseBopTargets(const std::string& json_text, const std::string& source);
+
+/// What camera.json holds.
+struct BopCameraInfo {
+  Camera camera;             ///< fx fy cx cy width height, valid by Camera::Check()
+  double depth_scale = 1.0;  ///< mm per depth PNG unit; 1 when the file has none
+};
+
+/// Parses the text of camera.json (fx, fy, cx, cy, width, height required; depth_scale
+/// optional). Throws g6d::Error naming `source` and the field when one is missing, of the
+/// wrong type or out of range.
+BopCameraInfo ParseBopCamera(const std::string& json_text, const std::string& source);
+
+/// Parses the text of models/models_info.json: objects by obj_id, mesh paths resolved
+/// against `models_dir`, millimetres converted to metres. Throws g6d::Error naming
+/// `source` and the field (see LoadBopDataset()).
+std::map<int, BopObjectInfo> ParseBopModelsInfo(const std::string& json_text,
+                                                const std::string& source,
+                                                const std::string& models_dir);
+
 /// What LoadBopDataset() finds at the dataset root (scenes themselves are loaded lazily
 /// with LoadBopScene()).
 struct BopDataset {
@@ -152,6 +176,23 @@ struct BopScene {
 /// when present its lists must match scene_gt.json). Throws g6d::Error naming the file and
 /// field on a missing file, malformed JSON, a wrong type or inconsistent lengths.
 BopScene LoadBopScene(const std::string& root, int scene_id, const std::string& split = "test");
+
+/// Names of a scene's three JSON files in error messages of ParseBopSceneFrames().
+struct BopSceneSources {
+  std::string camera = "scene_camera.json";    ///< names scene_camera.json
+  std::string gt = "scene_gt.json";            ///< names scene_gt.json
+  std::string gt_info = "scene_gt_info.json";  ///< names scene_gt_info.json
+};
+
+/// The JSON parsing of LoadBopScene() on texts: scene_camera.json, scene_gt.json and, when
+/// given, scene_gt_info.json of one scene. Returns every image of scene_camera.json sorted
+/// by im_id, each camera sized `width` x `height` (not checked; 0 when unknown). Throws
+/// g6d::Error naming the source and the field, as LoadBopScene() does.
+std::vector<BopFrame> ParseBopSceneFrames(const std::string& camera_json_text,
+                                          const std::string& gt_json_text,
+                                          const std::optional<std::string>& gt_info_json_text,
+                                          int width, int height,
+                                          const BopSceneSources& sources = {});
 
 /// rgb/<im_id:06d>.png, or .jpg when there is no PNG, as CV_8UC3 in RGB order (gray
 /// images are expanded). Throws g6d::Error naming the path when neither exists or is

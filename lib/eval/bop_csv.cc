@@ -141,6 +141,10 @@ std::vector<BopEstimate> ReadBopCsv(std::istream& in, const std::string& source)
     const std::string trimmed = Trim(line);
     if (trimmed.empty()) continue;
     const std::string where = source + ":" + std::to_string(line_number);
+    // The number parsers stop at a NUL byte, so "0.5<NUL>junk" would read as 0.5.
+    if (trimmed.find('\0') != std::string::npos) {
+      G6D_THROW(where << ": line contains a NUL byte (not a text file?)");
+    }
     if (trimmed == kHeader) continue;
     const std::vector<std::string> fields = Split(trimmed, ',');
     if (fields.size() != 7) {

@@ -44,7 +44,7 @@ void WriteBopCsv(const std::string& path, const std::vector<BopEstimate>& estima
 /// Parses a results CSV. `source` names the input in error messages ("<source>:<line>:").
 /// Accepts the exact BOP header (optional), blank lines and CRLF line ends. Throws
 /// g6d::Error with the line number on a wrong field count, a bad number, non-finite values,
-/// or a time that differs from an earlier line of the same image.
+/// a NUL byte, or a time that differs from an earlier line of the same image.
 std::vector<BopEstimate> ReadBopCsv(std::istream& in, const std::string& source);
 
 /// Reads a results file; throws g6d::Error naming the path when it cannot be opened.

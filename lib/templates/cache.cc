@@ -37,14 +37,19 @@ constexpr size_t kBodyChecksumOffset = 32;
 constexpr size_t kHeaderChecksumOffset = 56;  // FNV-1a 64 of bytes [0, 56)
 
 // Bounds on everything a file can declare; checked before any allocation.
-constexpr uint64_t kMaxBodyBytes = uint64_t{1} << 31;  // 2 GiB uncompressed
+// 256 MiB uncompressed: a 324-template bank is 5-20 MB. The reader allocates the declared
+// size before decompressing, so this bounds what a small hostile file can cost.
+constexpr uint64_t kMaxBodyBytes = uint64_t{256} << 20;
 constexpr uint32_t kMaxStringBytes = 4096;
 constexpr uint32_t kMaxSymmetries = 4096;
 constexpr uint32_t kMaxVertices = 10000000;
 constexpr uint32_t kMaxFaces = 20000000;
 constexpr uint32_t kMaxTemplates = 100000;
 constexpr uint32_t kMaxKeypointsPerTemplate = 100000;
-constexpr int32_t kMaxImageSide = 8192;
+// Masks are run-length coded, so a few bytes can declare a big one: a file may declare
+// at most this many bytes of masks and thumbnails over all templates (as much as the
+// largest body; a 324-template bank with S = 256 needs 22 MB).
+constexpr uint64_t kMaxImageBytes = kMaxBodyBytes;
 
 // ---- Little-endian writer -----------------------------------------------------------------
 
@@ -333,12 +338,21 @@ void WriteMask(const cv::Mat& mask, Writer* w) {
   for (uint32_t r : runs) w->U32(r);
 }
 
-cv::Mat ReadMask(Reader* r, const char* what) {
+// Empty when a template image of `rows` x `cols` is one the writer produces: `side`
+// square, or empty; else the problem.
+std::string TemplateImageSizeProblem(int32_t rows, int32_t cols, int side, const char* option) {
+  if ((rows == 0 && cols == 0) || (rows == side && cols == side)) return {};
+  return "has a bad size " + std::to_string(cols) + "x" + std::to_string(rows) + " (expected " +
+         std::to_string(side) + "x" + std::to_string(side) + " from " + option + ", or empty)";
+}
+
+// A mask of `side` x `side` (crop.size_px) or empty.
+cv::Mat ReadMask(Reader* r, const char* what, int side) {
   const int32_t rows = r->I32(what);
   const int32_t cols = r->I32(what);
-  if (rows < 0 || cols < 0 || rows > kMaxImageSide || cols > kMaxImageSide ||
-      (rows == 0) != (cols == 0)) {
-    r->Fail(what, "has a bad size " + std::to_string(cols) + "x" + std::to_string(rows));
+  if (const std::string problem = TemplateImageSizeProblem(rows, cols, side, "crop.size_px");
+      !problem.empty()) {
+    r->Fail(what, problem);
   }
   const uint64_t pixels = static_cast<uint64_t>(rows) * static_cast<uint64_t>(cols);
   const uint32_t num_runs =
@@ -393,12 +407,13 @@ void WriteGrayImage(const cv::Mat& image, Writer* w) {
   }
 }
 
-cv::Mat ReadGrayImage(Reader* r, const char* what) {
+// A thumbnail of `side` x `side` (thumbnail_size_px) or empty.
+cv::Mat ReadGrayImage(Reader* r, const char* what, int side) {
   const int32_t rows = r->I32(what);
   const int32_t cols = r->I32(what);
-  if (rows < 0 || cols < 0 || rows > kMaxImageSide || cols > kMaxImageSide ||
-      (rows == 0) != (cols == 0)) {
-    r->Fail(what, "has a bad size " + std::to_string(cols) + "x" + std::to_string(rows));
+  if (const std::string problem = TemplateImageSizeProblem(rows, cols, side, "thumbnail_size_px");
+      !problem.empty()) {
+    r->Fail(what, problem);
   }
   if (rows == 0) return cv::Mat();
   r->Need(static_cast<size_t>(rows) * static_cast<size_t>(cols), what);
@@ -453,7 +468,14 @@ Mesh ReadMesh(Reader* r) {
 
 constexpr size_t kKeypointBytes = 8 + 32 + 12;  // xy, descriptor, point
 
-void WriteTemplate(const Template& t, Writer* w) {
+void WriteTemplate(const Template& t, const TemplateBuildOptions& options, Writer* w) {
+  // Refused here as on reading, so that a file that was written can always be read back.
+  auto check_size = [](const cv::Mat& image, int side, const char* option, const char* what) {
+    const std::string problem = TemplateImageSizeProblem(image.rows, image.cols, side, option);
+    if (!problem.empty()) G6D_THROW("WriteTemplateCache: a template " << what << " " << problem);
+  };
+  check_size(t.mask, options.crop.size_px, "crop.size_px", "mask");
+  check_size(t.thumbnail, options.thumbnail_size_px, "thumbnail_size_px", "thumbnail");
   WritePose(t.cam_from_object, w);
   w->F64(t.crop_scale);
   w->F64(t.crop_offset.x());
@@ -469,15 +491,15 @@ void WriteTemplate(const Template& t, Writer* w) {
   w->ShuffledF32(t.points.empty() ? nullptr : t.points[0].data(), 3 * t.points.size());
 }
 
-Template ReadTemplate(Reader* r) {
+Template ReadTemplate(Reader* r, const TemplateBuildOptions& options) {
   Template t;
   t.cam_from_object = ReadPose(r, "template pose");
   t.crop_scale = r->Finite("template crop scale");
   if (!(t.crop_scale > 0.0)) r->Fail("template crop scale", "is not positive");
   t.crop_offset.x() = r->Finite("template crop offset");
   t.crop_offset.y() = r->Finite("template crop offset");
-  t.mask = ReadMask(r, "template mask");
-  t.thumbnail = ReadGrayImage(r, "template thumbnail");
+  t.mask = ReadMask(r, "template mask", options.crop.size_px);
+  t.thumbnail = ReadGrayImage(r, "template thumbnail", options.thumbnail_size_px);
   const uint32_t n = r->Count(kMaxKeypointsPerTemplate, kKeypointBytes, "keypoint");
   t.keypoints.resize(n);
   t.descriptors.resize(n);
@@ -509,7 +531,7 @@ std::string EncodeBody(const TemplateBank& bank) {
   for (const Eigen::Isometry3d& s : bank.symmetries) WritePose(s, &w);
   WriteMesh(bank.online_mesh, &w);
   w.Count(bank.templates.size(), kMaxTemplates, "template");
-  for (const Template& t : bank.templates) WriteTemplate(t, &w);
+  for (const Template& t : bank.templates) WriteTemplate(t, bank.options, &w);
   return std::move(w.bytes());
 }
 
@@ -546,8 +568,23 @@ TemplateBank DecodeBody(const uint8_t* data, size_t size, const std::string& nam
   // The smallest possible template: pose, affine, empty mask/thumbnail and no keypoints.
   constexpr size_t kMinTemplateBytes = 96 + 24 + 12 + 8 + 4;
   const uint32_t num_templates = r.Count(kMaxTemplates, kMinTemplateBytes, "template");
+  // Bounded before any template is read: a run-length mask of S x S pixels takes 16 bytes.
+  const uint64_t mask_side = static_cast<uint64_t>(bank.options.crop.size_px);
+  const uint64_t thumbnail_side = static_cast<uint64_t>(bank.options.thumbnail_size_px);
+  const uint64_t image_bytes =
+      num_templates * (mask_side * mask_side + thumbnail_side * thumbnail_side);
+  if (image_bytes > kMaxImageBytes) {
+    r.Fail("template count", std::to_string(num_templates) + " with crop.size_px " +
+                                 std::to_string(mask_side) + " and thumbnail_size_px " +
+                                 std::to_string(thumbnail_side) + " declares " +
+                                 std::to_string(image_bytes) +
+                                 " bytes of masks and thumbnails, more than the limit " +
+                                 std::to_string(kMaxImageBytes));
+  }
   bank.templates.reserve(num_templates);
-  for (uint32_t i = 0; i < num_templates; ++i) bank.templates.push_back(ReadTemplate(&r));
+  for (uint32_t i = 0; i < num_templates; ++i) {
+    bank.templates.push_back(ReadTemplate(&r, bank.options));
+  }
   if (r.Remaining() != 0) {
     G6D_THROW(name << ": corrupted: " << r.Remaining()
                    << " unexpected bytes after the last template");
@@ -578,6 +615,11 @@ std::string Compress(const std::string& body, int level) {
 
 std::string EncodeFile(const TemplateBank& bank, int zstd_level) {
   const std::string body = EncodeBody(bank);
+  if (body.size() > kMaxBodyBytes) {
+    G6D_THROW("WriteTemplateCache: '" << bank.object_id << "' encodes to " << body.size()
+                                      << " bytes, over the format's limit of " << kMaxBodyBytes
+                                      << " bytes (256 MiB): use fewer templates or keypoints");
+  }
   const std::string compressed = Compress(body, zstd_level);
   std::array<uint8_t, kHeaderSize> header{};
   std::memcpy(header.data(), kMagic, sizeof(kMagic));
@@ -675,8 +717,8 @@ HeaderInfo CheckHeader(const uint8_t* data, size_t available, uint64_t file_size
                    << " unexpected bytes after the body");
   }
   if (info.body_size > kMaxBodyBytes) {
-    G6D_THROW(name << ": corrupted: body size " << info.body_size << " exceeds the limit "
-                   << kMaxBodyBytes);
+    G6D_THROW(name << ": corrupted: body size " << info.body_size << " exceeds the limit of "
+                   << kMaxBodyBytes << " bytes (256 MiB)");
   }
   return info;
 }
@@ -710,6 +752,10 @@ TemplateBank ParseTemplateCache(const std::string& bytes, const std::string& nam
   const HeaderInfo info =
       CheckHeader(data, std::min(bytes.size(), kHeaderSize), bytes.size(), name);
   return DecodeCompressedBody(info, data + kHeaderSize, name);
+}
+
+TemplateBank ParseTemplateCacheBody(const std::string& body, const std::string& name) {
+  return DecodeBody(reinterpret_cast<const uint8_t*>(body.data()), body.size(), name);
 }
 
 TemplateBank ReadTemplateCache(const std::string& path) {

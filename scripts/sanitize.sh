@@ -1,0 +1,60 @@
+#!/usr/bin/env bash
+# The sanitizer suites: the test suite built with -fsanitize and run under the sanitizers'
+# runtime checks, failing on the first report.
+#   bash scripts/sanitize.sh          # both suites
+#   bash scripts/sanitize.sh asan     # AddressSanitizer + UndefinedBehaviorSanitizer: every test
+#   bash scripts/sanitize.sh tsan     # ThreadSanitizer: the service and thread-pool tests
+# Build folders: build-asan/ and build-tsan/ (Release + -g). Extra arguments after the suite
+# go to ctest, e.g. `bash scripts/sanitize.sh asan -R cache_test`.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT="$PWD"
+SUITE="${1:-all}"
+if [[ $# -gt 0 ]]; then shift; fi
+case "${SUITE}" in
+  all | asan | tsan) ;;
+  *) echo "usage: bash scripts/sanitize.sh [all|asan|tsan] [ctest args]" >&2; exit 2 ;;
+esac
+
+# Tests under ThreadSanitizer: everything that runs threads of ours (the service, its LCM
+# thread, scheduler and worker pool, and the thread pool itself). The rest of the suite is
+# single-threaded or reaches threads only through these.
+TSAN_TESTS=(service_test service_process_test frame_codec_test mailbox_test service_options_test
+  template_store_test executor_test template_bank_test pipeline_test)
+TSAN_TARGETS=("${TSAN_TESTS[@]}" g6d-service)
+
+START=$(date +%s)
+run_asan() {
+  echo "[sanitize] AddressSanitizer + UndefinedBehaviorSanitizer: build-asan, every test"
+  BUILD_DIR=build-asan CMAKE_ARGS="-DG6D_SANITIZE=address,undefined -DG6D_BUILD_BENCH=OFF" \
+    G6D_SKIP_APT=1 bash scripts/setup.sh
+  (
+    cd build-asan
+    export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1:check_initialization_order=1:strict_init_order=1:detect_stack_use_after_return=1:print_summary=1"
+    export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1:suppressions=${ROOT}/tests/ubsan_suppressions.txt"
+    export LSAN_OPTIONS="suppressions=${ROOT}/tests/lsan_suppressions.txt:print_suppressions=0"
+    ctest --output-on-failure -j"${JOBS:-2}" "$@"
+  )
+}
+
+run_tsan() {
+  echo "[sanitize] ThreadSanitizer: build-tsan, ${TSAN_TESTS[*]}"
+  BUILD_DIR=build-tsan CMAKE_ARGS="-DG6D_SANITIZE=thread -DG6D_BUILD_BENCH=OFF" \
+    BUILD_TARGETS="${TSAN_TARGETS[*]}" G6D_SKIP_APT=1 bash scripts/setup.sh
+  local regex
+  regex="^($(IFS='|'; echo "${TSAN_TESTS[*]}"))\\."
+  (
+    cd build-tsan
+    export TSAN_OPTIONS="suppressions=${ROOT}/tests/tsan_suppressions.txt:ignore_noninstrumented_modules=1:halt_on_error=1:second_deadlock_stack=1"
+    ctest --output-on-failure -j"${JOBS:-2}" -R "${regex}" "$@"
+  )
+}
+
+# The Debian packages once (setup.sh is idempotent); the suites below only build.
+if [[ "${G6D_SKIP_APT:-0}" != "1" ]]; then G6D_SKIP_BUILD=1 bash scripts/setup.sh; fi
+if [[ "${SUITE}" == all || "${SUITE}" == asan ]]; then run_asan "$@"; fi
+ASAN_END=$(date +%s)
+if [[ "${SUITE}" == all || "${SUITE}" == tsan ]]; then run_tsan "$@"; fi
+END=$(date +%s)
+echo "[sanitize] passed (${SUITE}): $((END - START)) s in all" \
+  "(asan $((ASAN_END - START)) s, tsan $((END - ASAN_END)) s)"
