@@ -25,7 +25,7 @@ namespace {
 
 using ::testing::HasSubstr;
 
-const std::string kBop2Lcm = G6D_BINARY_DIR "/replay/g6d-bop2lcm";
+const std::string kBop2Lcm = test::BinaryDir() + "/replay/g6d-bop2lcm";
 
 struct LoggedFrame {
   int64_t timestamp_us = 0;

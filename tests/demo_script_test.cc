@@ -28,9 +28,8 @@ using Json = nlohmann::json;
 
 // Runs scripts/demo.sh with the binaries of this build and no setup step.
 test::CommandResult RunDemo(const std::string& environment) {
-  return test::RunCommand("cd " G6D_SOURCE_DIR " && G6D_SKIP_BUILD=1 BUILD_DIR=" G6D_BINARY_DIR
-                          " " +
-                          environment + " bash scripts/demo.sh");
+  return test::RunCommand("cd " + test::SourceDir() + " && G6D_SKIP_BUILD=1 BUILD_DIR=" +
+                          test::BinaryDir() + " " + environment + " bash scripts/demo.sh");
 }
 
 int CountLinesWith(const std::string& text, const std::regex& pattern) {
@@ -103,7 +102,7 @@ TEST(DemoScript, RefusesAFolderThatIsNotBop) {
 
 // The README's command lines that start with build/tools/<tool>, continuation lines joined.
 std::vector<std::string> ReadmeCommands(const std::string& tool) {
-  std::ifstream readme(G6D_SOURCE_DIR "/README.md");
+  std::ifstream readme(test::SourceDir() + "/README.md");
   std::vector<std::string> commands;
   std::string line, command;
   bool in_code = false;
@@ -136,7 +135,7 @@ std::string Localize(const std::string& command, const std::string& out_dir,
   std::istringstream words(command);
   std::string word, result, previous;
   while (words >> word) {
-    if (word.rfind("build/", 0) == 0) word = std::string(G6D_BINARY_DIR) + word.substr(5);
+    if (word.rfind("build/", 0) == 0) word = test::BinaryDir() + word.substr(5);
     if (word.rfind("out/", 0) == 0) word = out_dir + word.substr(3);
     if (previous == "--results" && results_path != nullptr) *results_path = word;
     if (previous == "--dataset" && dataset_path != nullptr) *dataset_path = word;

@@ -26,7 +26,7 @@ namespace {
 using ::testing::HasSubstr;
 using Json = nlohmann::json;
 
-const std::string kEval = G6D_BINARY_DIR "/tools/g6d-eval";
+const std::string kEval = test::BinaryDir() + "/tools/g6d-eval";
 
 using RunResult = test::CommandResult;
 using test::RunCommand;

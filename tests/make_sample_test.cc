@@ -38,7 +38,7 @@ namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using Json = nlohmann::json;
 
-const std::string kMakeSample = G6D_BINARY_DIR "/tools/g6d-make-sample";
+const std::string kMakeSample = test::BinaryDir() + "/tools/g6d-make-sample";
 
 // A small sample: 3 images, written once for the tests that only read it.
 SampleOptions SmallOptions() {

@@ -40,10 +40,10 @@ namespace {
 using ::testing::AllOf;
 using ::testing::HasSubstr;
 
-const std::string kBop2Lcm = G6D_BINARY_DIR "/replay/g6d-bop2lcm";
-const std::string kReplay = G6D_BINARY_DIR "/replay/g6d-replay";
-const std::string kService = G6D_BINARY_DIR "/service/g6d-service";
-const std::string kBuildTemplates = G6D_BINARY_DIR "/tools/g6d-build-templates";
+const std::string kBop2Lcm = test::BinaryDir() + "/replay/g6d-bop2lcm";
+const std::string kReplay = test::BinaryDir() + "/replay/g6d-replay";
+const std::string kService = test::BinaryDir() + "/service/g6d-service";
+const std::string kBuildTemplates = test::BinaryDir() + "/tools/g6d-build-templates";
 
 // A small frame with two instances (labels 1 and 2) of two BOP objects.
 rgbd_frame_t SmallFrame(int64_t seq) {

@@ -26,9 +26,9 @@ namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using Json = nlohmann::json;
 
-const std::string kMakeSample = G6D_BINARY_DIR "/tools/g6d-make-sample";
-const std::string kOverlay = G6D_BINARY_DIR "/tools/g6d-overlay";
-const std::string kEval = G6D_BINARY_DIR "/tools/g6d-eval";
+const std::string kMakeSample = test::BinaryDir() + "/tools/g6d-make-sample";
+const std::string kOverlay = test::BinaryDir() + "/tools/g6d-overlay";
+const std::string kEval = test::BinaryDir() + "/tools/g6d-eval";
 
 // A 2-image sample and a results CSV holding its ground truth, except that the box of
 // image 1 is 5 cm off.

@@ -30,7 +30,7 @@ namespace {
 
 using std::chrono::seconds;
 
-const std::string kServiceBinary = std::string(G6D_BINARY_DIR) + "/service/g6d-service";
+const std::string kServiceBinary = test::BinaryDir() + "/service/g6d-service";
 
 /// A udpm URL on a port no other test run uses at the same time. Frames are a few hundred
 /// kB even compressed: a 4 MB socket receive buffer (capped by net.core.rmem_max) keeps

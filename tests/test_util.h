@@ -7,17 +7,19 @@
 
 #include <gtest/gtest.h>
 
+#include "test_paths.h"
+
 namespace g6d::test {
 
 /// ../shared/data beside the checkout (empty string when the folder is absent).
 inline std::string SharedDataDir() {
-  const std::filesystem::path dir(G6D_SHARED_DATA_DIR);
+  const std::filesystem::path dir(SharedDataRoot());
   return std::filesystem::is_directory(dir) ? dir.string() : std::string();
 }
 
 /// Path of a file under the shared data folder (may not exist).
 inline std::string SharedDataPath(const std::string& relative) {
-  return (std::filesystem::path(G6D_SHARED_DATA_DIR) / relative).string();
+  return (std::filesystem::path(SharedDataRoot()) / relative).string();
 }
 
 /// A fresh temporary directory for one test, removed by the caller if wanted.

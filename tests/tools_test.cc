@@ -25,9 +25,9 @@ namespace {
 
 using ::testing::HasSubstr;
 
-const std::string kBuildTemplates = G6D_BINARY_DIR "/tools/g6d-build-templates";
-const std::string kInspect = G6D_BINARY_DIR "/tools/g6d-inspect";
-const std::string kSolve = G6D_BINARY_DIR "/tools/g6d-solve";
+const std::string kBuildTemplates = test::BinaryDir() + "/tools/g6d-build-templates";
+const std::string kInspect = test::BinaryDir() + "/tools/g6d-inspect";
+const std::string kSolve = test::BinaryDir() + "/tools/g6d-solve";
 
 using RunResult = test::CommandResult;
 using test::RunCommand;
