@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "proc_stats.h"
 #include "service/service.h"
 #include "service_test_util.h"
 
@@ -46,32 +47,8 @@ double Percentile(std::vector<double> values, double q) {
   return g6d::Percentile(std::move(values), q);
 }
 
-/// CPU seconds (user + system) of process `pid` (0 = this process), from /proc.
-double CpuSeconds(pid_t pid) {
-  std::ifstream file("/proc/" + (pid == 0 ? std::string("self") : std::to_string(pid)) + "/stat");
-  std::string text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
-  // Fields after the command name (which may contain spaces) start after the last ')'.
-  const size_t close = text.rfind(')');
-  if (close == std::string::npos) return 0.0;
-  std::istringstream fields(text.substr(close + 2));
-  std::string field;
-  double utime = 0, stime = 0;
-  for (int i = 3; i <= 15 && fields >> field; ++i) {
-    if (i == 14) utime = std::stod(field);
-    if (i == 15) stime = std::stod(field);
-  }
-  return (utime + stime) / static_cast<double>(sysconf(_SC_CLK_TCK));
-}
-
-/// Resident set size of `pid` (0 = this process), MiB.
-double RssMiB(pid_t pid) {
-  std::ifstream file("/proc/" + (pid == 0 ? std::string("self") : std::to_string(pid)) + "/status");
-  std::string line;
-  while (std::getline(file, line)) {
-    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
-  }
-  return 0.0;
-}
+using g6d::bench::CpuSeconds;
+using g6d::bench::RssMiB;
 
 /// What the bench saw of one answer.
 struct Observed {

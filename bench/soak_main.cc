@@ -60,6 +60,8 @@
 
 #include "bad_frames.h"
 #include "core/error.h"
+#include "lcm_pump.h"
+#include "proc_stats.h"
 #include "g6d/pose_array_t.hpp"
 #include "g6d/service_status_t.hpp"
 #include "replay/frame_log.h"
@@ -315,20 +317,8 @@ bool ReadProcess(pid_t pid, Sample* sample) {
   // A zombie has neither line.
   if (!have_rss || !have_threads) return false;
 
-  std::ifstream stat_file(dir + "/stat");
-  const std::string text((std::istreambuf_iterator<char>(stat_file)),
-                         std::istreambuf_iterator<char>());
-  // Fields after the command name (which may contain spaces) start after the last ')'.
-  const size_t close_paren = text.rfind(')');
-  if (close_paren == std::string::npos) return false;
-  std::istringstream fields(text.substr(close_paren + 2));
-  std::string field;
-  double utime = 0.0, stime = 0.0;
-  for (int i = 3; i <= 15 && fields >> field; ++i) {
-    if (i == 14) utime = std::stod(field);
-    if (i == 15) stime = std::stod(field);
-  }
-  sample->cpu_s = (utime + stime) / static_cast<double>(sysconf(_SC_CLK_TCK));
+  sample->cpu_s = g6d::bench::CpuSeconds(pid);
+  if (sample->cpu_s < 0.0) return false;
 
   DIR* fd_dir = opendir((dir + "/fd").c_str());
   if (fd_dir == nullptr) return false;
@@ -378,35 +368,7 @@ int64_t UdpDrops(pid_t pid) {
 
 // ---- LCM -----------------------------------------------------------------------------------
 
-/// Runs lcm->handle() on its own thread, waiting on the LCM descriptor and a wake-up
-/// descriptor: no polling.
-class LcmPump {
- public:
-  explicit LcmPump(lcm::LCM* lcm) : lcm_(lcm), wake_fd_(eventfd(0, EFD_CLOEXEC)) {
-    if (wake_fd_ < 0) G6D_THROW("eventfd failed: " << std::strerror(errno));
-    thread_ = std::thread([this] {
-      pollfd fds[2] = {{lcm_->getFileno(), POLLIN, 0}, {wake_fd_, POLLIN, 0}};
-      for (;;) {
-        if (poll(fds, 2, -1) < 0) continue;  // EINTR
-        if (fds[1].revents != 0) return;
-        if (fds[0].revents & POLLIN) lcm_->handle();
-      }
-    });
-  }
-  ~LcmPump() {
-    const uint64_t one = 1;
-    (void)!write(wake_fd_, &one, sizeof(one));
-    thread_.join();
-    close(wake_fd_);
-  }
-  LcmPump(const LcmPump&) = delete;
-  LcmPump& operator=(const LcmPump&) = delete;
-
- private:
-  lcm::LCM* lcm_;
-  int wake_fd_;
-  std::thread thread_;
-};
+using g6d::test::LcmPump;
 
 // ---- Answers -------------------------------------------------------------------------------
 

@@ -24,6 +24,7 @@
 #include "g6d/pose_array_t.hpp"
 #include "g6d/rgbd_frame_t.hpp"
 #include "g6d/service_status_t.hpp"
+#include "lcm_pump.h"
 #include "mesh/mesh.h"
 #include "render/gl_renderer.h"
 #include "service/frame_codec.h"
@@ -130,32 +131,6 @@ inline Eigen::Isometry3d PoseOf(const pose_estimate_t& estimate) {
   return pose;
 }
 
-/// Runs lcm->handle() on its own thread (for an LCM instance no service pumps), waiting
-/// on the LCM descriptor and a wake-up descriptor: no polling.
-class LcmPump {
- public:
-  explicit LcmPump(lcm::LCM* lcm) : lcm_(lcm), wake_fd_(eventfd(0, EFD_CLOEXEC)) {
-    thread_ = std::thread([this] {
-      pollfd fds[2] = {{lcm_->getFileno(), POLLIN, 0}, {wake_fd_, POLLIN, 0}};
-      for (;;) {
-        if (poll(fds, 2, -1) < 0) continue;  // EINTR
-        if (fds[1].revents != 0) return;
-        if (fds[0].revents & POLLIN) lcm_->handle();
-      }
-    });
-  }
-  ~LcmPump() {
-    const uint64_t one = 1;
-    (void)!write(wake_fd_, &one, sizeof(one));
-    thread_.join();
-    close(wake_fd_);
-  }
-
- private:
-  lcm::LCM* lcm_;
-  int wake_fd_;
-  std::thread thread_;
-};
 
 /// A blocking queue of received messages of one type.
 template <typename T>

@@ -9,20 +9,12 @@
 #include <string>
 
 #include "core/error.h"
+#include "fuzz_limits.h"
 #include "service/frame_codec.h"
 
 namespace {
 
-// Decoding limits smaller than the service defaults (8192 x 8192, 512 MiB raw), so that
-// one input cannot take seconds or hit the fuzzer's memory limit by declaring a big but
-// allowed plane. The limit checks themselves are the same code for any value.
-g6d::DecodeLimits FuzzLimits() {
-  g6d::DecodeLimits limits;
-  limits.max_width = 1024;
-  limits.max_height = 1024;
-  limits.max_raw_bytes = int64_t{16} << 20;
-  return limits;
-}
+using g6d::fuzz::FuzzLimits;
 
 // Documented guarantees of DecodeFrame() (frame_codec.h) on a frame it accepted.
 void CheckDecodedFrame(const g6d::rgbd_frame_t& message, const g6d::DecodedFrame& decoded) {

@@ -13,6 +13,7 @@
 #include <cstring>
 
 #include "core/error.h"
+#include "fuzz_limits.h"
 #include "service/frame_codec.h"
 
 namespace {
@@ -25,14 +26,7 @@ int32_t LoadI32(const uint8_t* p) {
   return static_cast<int32_t>(bits);
 }
 
-// As in fuzz_frame_message.cc: smaller than the service's limits so one input stays fast.
-g6d::DecodeLimits FuzzLimits() {
-  g6d::DecodeLimits limits;
-  limits.max_width = 1024;
-  limits.max_height = 1024;
-  limits.max_raw_bytes = int64_t{16} << 20;
-  return limits;
-}
+using g6d::fuzz::FuzzLimits;
 
 }  // namespace
 
