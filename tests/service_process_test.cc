@@ -202,7 +202,15 @@ TEST_F(ServiceProcessTest, AnswersOverUdpmAndStopsOnSigterm) {
   ASSERT_TRUE(exit_status.has_value()) << "still running 10 s after SIGTERM; log:\n" << log;
   ASSERT_TRUE(WIFEXITED(*exit_status)) << log;
   EXPECT_EQ(WEXITSTATUS(*exit_status), 0) << log;
-  EXPECT_LT(elapsed_s, 2.0) << "shutdown took " << elapsed_s << " s";
+  // Issue 4 asks for an exit within 2 s (the shutdown timeout is 1.5 s). Sanitizer builds
+  // run 5-15x slower and exit through the sanitizer's own checks, so there only the exit
+  // itself (within 10 s, code 0) is asserted.
+#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
+  const double max_shutdown_s = 10.0;
+#else
+  const double max_shutdown_s = 2.0;
+#endif
+  EXPECT_LT(elapsed_s, max_shutdown_s) << "shutdown took " << elapsed_s << " s";
   std::cout << "shutdown after SIGTERM took " << elapsed_s << " s\n";
 
   // The log names the loaded object and the refused file with its reason.
