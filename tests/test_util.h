@@ -2,6 +2,8 @@
 /// @file test_util.h
 /// Helpers shared by the tests: where the shared real data lives, and a skip when absent.
 
+#include <unistd.h>
+
 #include <filesystem>
 #include <string>
 
@@ -22,9 +24,12 @@ inline std::string SharedDataPath(const std::string& relative) {
   return (std::filesystem::path(SharedDataRoot()) / relative).string();
 }
 
-/// A fresh temporary directory for one test, removed by the caller if wanted.
+/// A fresh temporary directory for one test, removed by the caller if wanted. The name
+/// carries the process id: ctest runs every case in a process of its own, two at a time,
+/// and cases sharing a fixture (hence a name) must not wipe each other's files.
 inline std::string TempDir(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() / ("g6d_test_" + name);
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("g6d_test_" + name + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir.string();
