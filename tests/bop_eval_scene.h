@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "core/camera.h"
+#include "eval/bop.h"
 #include "eval/bop_csv.h"
 #include "mesh/mesh.h"
 #include "render/raster.h"
@@ -185,6 +186,26 @@ inline BopEstimate MakeEstimate(int im_id, int obj_id, double score,
   estimate.score = score;
   estimate.cam_from_object = cam_from_object;
   return estimate;
+}
+
+/// Every GT instance of `dataset` as an estimate with score 1.
+inline std::vector<BopEstimate> GroundTruthEstimates(const BopDataset& dataset) {
+  std::vector<BopEstimate> estimates;
+  for (int scene_id : dataset.scene_ids) {
+    const BopScene scene = LoadBopScene(dataset.root, scene_id, dataset.split);
+    for (const BopFrame& frame : scene.frames) {
+      for (const BopGtInstance& gt : frame.gt) {
+        BopEstimate estimate;
+        estimate.scene_id = scene_id;
+        estimate.im_id = frame.im_id;
+        estimate.obj_id = gt.obj_id;
+        estimate.score = 1.0;
+        estimate.cam_from_object = gt.cam_from_object;
+        estimates.push_back(estimate);
+      }
+    }
+  }
+  return estimates;
 }
 
 }  // namespace g6d::test

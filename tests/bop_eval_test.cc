@@ -47,25 +47,6 @@ Eigen::Isometry3d Moved(const Eigen::Isometry3d& pose, const Eigen::Vector3d& of
   return moved;
 }
 
-// Every GT instance of `dataset` as an estimate with score 1.
-std::vector<BopEstimate> GroundTruthEstimates(const BopDataset& dataset) {
-  std::vector<BopEstimate> estimates;
-  for (int scene_id : dataset.scene_ids) {
-    const BopScene scene = LoadBopScene(dataset.root, scene_id, dataset.split);
-    for (const BopFrame& frame : scene.frames) {
-      for (const BopGtInstance& gt : frame.gt) {
-        BopEstimate estimate;
-        estimate.scene_id = scene_id;
-        estimate.im_id = frame.im_id;
-        estimate.obj_id = gt.obj_id;
-        estimate.score = 1.0;
-        estimate.cam_from_object = gt.cam_from_object;
-        estimates.push_back(estimate);
-      }
-    }
-  }
-  return estimates;
-}
 
 TEST(BopEvalOptions, CheckNamesTheBadField) {
   BopEvalOptions options;
@@ -87,8 +68,8 @@ TEST(EvaluateBop, GroundTruthIsPerfect) {
       {{0, {{kCube, At(0.0, 0.0, 0.6)}, {kCylinder, MakePose(tilted, {0.15, 0.0, 0.7})}}},
        {1, {{kCube, At(-0.1, 0.0, 0.8)}, {kCube, At(0.1, 0.02, 0.8)}}}});
   const BopDataset dataset = LoadBopDataset(root);
-  const BopEvalReport report = EvaluateBop(dataset, dataset.targets, GroundTruthEstimates(dataset),
-                                           BopEvalOptions(), nullptr);
+  const BopEvalReport report = EvaluateBop(
+      dataset, dataset.targets, test::GroundTruthEstimates(dataset), BopEvalOptions(), nullptr);
   ASSERT_TRUE(report.success) << report.message;
   EXPECT_EQ(report.overall.targets, 4);
   EXPECT_EQ(report.overall.with_estimate, 4);
@@ -313,7 +294,7 @@ TEST(EvaluateBop, ThreadsGiveTheSameResult) {
        {1, {{kCube, At(-0.1, 0.0, 0.8)}}},
        {2, {{kCylinder, At(0.0, 0.05, 0.7)}}}});
   const BopDataset dataset = LoadBopDataset(root);
-  std::vector<BopEstimate> estimates = GroundTruthEstimates(dataset);
+  std::vector<BopEstimate> estimates = test::GroundTruthEstimates(dataset);
   for (size_t i = 0; i < estimates.size(); ++i) {
     estimates[i].cam_from_object.translation() += Eigen::Vector3d(0.004 * i, 0.0, 0.01);
   }
@@ -342,7 +323,7 @@ TEST(EvaluateBop, LmoGroundTruthCsvIsPerfect) {
   G6D_REQUIRE_SHARED_DATA("lmo/test_targets_bop19.json");
   const BopDataset dataset = LoadBopDataset(test::SharedDataPath("lmo"));
   const std::string csv = test::TempDir("bop_eval_lmo") + "/gt.csv";
-  WriteBopCsv(csv, GroundTruthEstimates(dataset));
+  WriteBopCsv(csv, test::GroundTruthEstimates(dataset));
   const std::vector<BopEstimate> estimates = ReadBopCsv(csv);
   ThreadPool pool(2);
   const BopEvalReport report =
@@ -379,8 +360,8 @@ TEST(EvaluateBop, LmoGroundTruthCsvIsPerfect) {
 TEST(EvaluateBop, YcbvGroundTruthIsPerfect) {
   G6D_REQUIRE_SHARED_DATA("ycbv_real/test_targets_bop19.json");
   const BopDataset dataset = LoadBopDataset(test::SharedDataPath("ycbv_real"));
-  const BopEvalReport report = EvaluateBop(dataset, dataset.targets, GroundTruthEstimates(dataset),
-                                           BopEvalOptions(), nullptr);
+  const BopEvalReport report = EvaluateBop(
+      dataset, dataset.targets, test::GroundTruthEstimates(dataset), BopEvalOptions(), nullptr);
   ASSERT_TRUE(report.success) << report.message;
   EXPECT_EQ(report.overall.targets, 5);
   EXPECT_EQ(report.overall.ar, 1.0);

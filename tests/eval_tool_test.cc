@@ -115,22 +115,7 @@ TEST(G6dEval, LmoGroundTruth) {
   G6D_REQUIRE_SHARED_DATA("lmo/test_targets_bop19.json");
   ASSERT_TRUE(std::filesystem::exists(kEval)) << kEval << " is not built";
   const std::string root = test::SharedDataPath("lmo");
-  const BopDataset dataset = LoadBopDataset(root);
-  std::vector<BopEstimate> estimates;
-  for (int scene_id : dataset.scene_ids) {
-    const BopScene scene = LoadBopScene(root, scene_id);
-    for (const BopFrame& frame : scene.frames) {
-      for (const BopGtInstance& gt : frame.gt) {
-        BopEstimate estimate;
-        estimate.scene_id = scene_id;
-        estimate.im_id = frame.im_id;
-        estimate.obj_id = gt.obj_id;
-        estimate.score = 1.0;
-        estimate.cam_from_object = gt.cam_from_object;
-        estimates.push_back(estimate);
-      }
-    }
-  }
+  const std::vector<BopEstimate> estimates = test::GroundTruthEstimates(LoadBopDataset(root));
   const std::string dir = test::TempDir("eval_tool_lmo");
   WriteBopCsv(dir + "/gt.csv", estimates);
   const RunResult run = RunCommand(kEval + " --dataset " + root + " --results " + dir +
