@@ -43,6 +43,7 @@ struct Tally {
   int correct[5] = {0, 0, 0, 0, 0};  // seed, pnp, observable, icp, final
   int oracle_pnp = 0, oracle_kept = 0;  // some PnP pose / some kept pose is correct
   int oracle_pnp_rot = 0, oracle_kept_rot = 0;  // some PnP / kept pose within 15 deg of GT rotation
+  int search_failures = 0, score_failures = 0;  // misses with S(GT) < S_A / S(GT) >= S_A (--score-gt)
 };
 
 }  // namespace
@@ -74,23 +75,41 @@ int main(int argc, char** argv) {
   app.add_option("--icp-min-step", icp_min_step, "ICP stops when points move less than this, metres (0 = default)");
   app.add_option("--icp-iterations", icp_iterations, "ICP iterations at most (0 = default)");
   app.add_option("--icp-source-points", source_points, "rendered ICP source points at most (0 = default)");
-  bool allow_border = false, post_refine = false;
+  bool allow_border = false, reject_border = false, post_refine = false, score_gt = false;
+  std::vector<int> adds_ids;
   app.add_flag("--post-refine", post_refine, "enable the optional post-refinement (stage 6)");
-  app.add_flag("--allow-border-masks", allow_border, "solve masks that touch the image border too (refused by default)");
+  app.add_flag("--allow-border-masks", allow_border, "solve masks that touch the image border (the default; kept for old scripts)");
+  app.add_flag("--reject-border-masks", reject_border, "refuse masks that touch the image border (truncated objects)");
+  app.add_option("--adds-ids", adds_ids, "object ids scored with ADD-S besides models_info's symmetric ones (e.g. 1 for the YCB-V can)")
+      ->delimiter(',');
+  bool no_appearance = false, no_occlusion = false, no_dedupe = false;
+  app.add_flag("--no-appearance", no_appearance, "no appearance tie-break among finalists (ablation)");
+  app.add_flag("--no-occlusion", no_occlusion, "no occlusion reasoning in the scores, ICP and MHPO (ablation)");
+  app.add_flag("--no-dedupe", no_dedupe, "keep hypotheses equal modulo symmetry as separate K slots (ablation)");
+  app.add_flag("--score-gt", score_gt,
+               "also score the GT pose (S, 1 - J, depth term) beside S_A per instance: a miss with S(GT) < S_A is a "
+               "search failure, with S(GT) >= S_A a score failure (records CSV and a summary)");
   app.add_flag("--oracle", oracle, "also report whether any PnP / kept hypothesis was correct (slow)");
   CLI11_PARSE(app, argc, argv);
 
   try {
     g6d::BopDataset dataset = g6d::LoadBopDataset(dataset_dir);
-    if (!targets_file.empty()) G6D_THROW("--targets other than the dataset's own are not supported yet");
-    if (!dataset.has_targets) G6D_THROW("'" << dataset_dir << "' has no test_targets_bop19.json");
+    if (!targets_file.empty()) {
+      dataset.targets = g6d::LoadBopTargets(targets_file);
+    } else if (!dataset.has_targets) {
+      G6D_THROW("'" << dataset_dir << "' has no test_targets_bop19.json (pass --targets FILE)");
+    }
+    if (allow_border && reject_border) G6D_THROW("--allow-border-masks and --reject-border-masks contradict each other");
     g6d::SolverOptions options;
     options.num_hypotheses = hypotheses;
     options.run_mhpo = !no_mhpo;
     options.run_icp = !no_icp;
     if (pnp_iterations > 0) options.pnp.max_iterations = pnp_iterations;
     options.pnp.progressive_sampling = prosac;
-    options.reject_border_masks = !allow_border;
+    options.reject_border_masks = reject_border;
+    if (no_appearance) options.appearance_tiebreak = false;
+    if (no_occlusion) options.score.occlusion_margin_m = 0.0;
+    if (no_dedupe) options.distinct_pose_fraction = 0.0;
     options.post_refine = post_refine;
     if (icp_min_step > 0) options.icp.min_step_m = icp_min_step;
     if (icp_iterations > 0) options.icp.max_iterations = icp_iterations;
@@ -105,7 +124,10 @@ int main(int argc, char** argv) {
     if (!records_csv.empty()) {
       records = std::fopen(records_csv.c_str(), "w");
       if (!records) G6D_THROW("cannot write '" << records_csv << "'");
-      std::fprintf(records, "scene_id,im_id,obj_id,gt_idx,success,score,confidence,iou,depth_residual,error_d,correct,total_ms\n");
+      std::fprintf(records,
+                   "scene_id,im_id,obj_id,gt_idx,success,score,confidence,iou,depth_residual,error_d,correct,total_ms,"
+                   "truncated,ambiguous,runner_up_gap,appearance_valid,appearance_agreement,appearance_changed,"
+                   "gt_score,gt_iou,gt_depth_residual,gt_occluded_px\n");
     }
     int seen = 0;
     g6d::ThreadPool pool(std::max(1, threads));
@@ -127,7 +149,7 @@ int main(int argc, char** argv) {
         const g6d::Mesh mesh = g6d::LoadMesh(info.mesh_path, info.mesh_units);
         const size_t step = std::max<size_t>(1, mesh.vertices.size() / 3000);
         for (size_t i = 0; i < mesh.vertices.size(); i += step) data.points.push_back(mesh.vertices[i]);
-        data.symmetric = info.IsSymmetric();
+        data.symmetric = info.IsSymmetric() || std::count(adds_ids.begin(), adds_ids.end(), target.obj_id) > 0;
         data.diameter_m = info.diameter_m;
         objects.emplace(target.obj_id, std::move(data));
       }
@@ -148,6 +170,12 @@ int main(int argc, char** argv) {
         const g6d::Instance instance{object.bank.object_id, g6d::LoadBopMaskVisib(scene, target.im_id, static_cast<int>(gt_idx))};
         const g6d::PoseResult result = g6d::EstimatePose(frame, instance, object.bank, options, &pool);
         const g6d::StageReport& s = result.stages;
+        g6d::PoseScore gt_score;
+        bool has_gt_score = false;
+        if (score_gt && result.success) {
+          gt_score = g6d::ScoreInstancePose(frame, instance, object.bank, options, gt.cam_from_object);
+          has_gt_score = true;
+        }
         auto error = [&](const Eigen::Isometry3d& pose) {
           return object.symmetric ? g6d::ComputeAdds(pose, gt.cam_from_object, object.points)
                                   : g6d::ComputeAdd(pose, gt.cam_from_object, object.points);
@@ -188,12 +216,27 @@ int main(int argc, char** argv) {
           estimate.cam_from_object = result.cam_from_object;
           estimates.push_back(estimate);
         }
+        const bool correct = result.success && g6d::IsAddCorrect(final_error, object.diameter_m);
+        if (has_gt_score && !correct) {
+          // A miss: was a pose at least as good as the GT by S found (score failure) or not
+          // (search failure)?
+          (gt_score.s < result.score ? tally.search_failures : tally.score_failures) += 1;
+        }
         if (records) {
-          std::fprintf(records, "%d,%d,%d,%zu,%d,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%.3f\n", target.scene_id, target.im_id,
+          std::fprintf(records, "%d,%d,%d,%zu,%d,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%.3f,%d,", target.scene_id, target.im_id,
                        target.obj_id, gt_idx, result.success ? 1 : 0, result.score, result.confidence,
                        result.details.iou, result.details.depth_residual,
-                       result.success ? final_error / object.diameter_m : -1.0,
-                       result.success && g6d::IsAddCorrect(final_error, object.diameter_m) ? 1 : 0, s.total_ms);
+                       result.success ? final_error / object.diameter_m : -1.0, correct ? 1 : 0, s.total_ms,
+                       result.truncated ? 1 : 0);
+          std::fprintf(records, "%d,%.6f,%d,%.6f,%d,", result.ambiguous ? 1 : 0,
+                       result.has_runner_up ? result.runner_up_score - result.score : -1.0,
+                       result.appearance_valid ? 1 : 0, result.appearance_agreement, s.appearance_changed ? 1 : 0);
+          if (has_gt_score) {
+            std::fprintf(records, "%.6f,%.6f,%.6f,%d\n", gt_score.s, gt_score.iou, gt_score.depth_residual,
+                         gt_score.occluded_pixels);
+          } else {
+            std::fprintf(records, ",,,\n");
+          }
         }
         image_time_s[{target.scene_id, target.im_id}] += s.total_ms / 1000.0;
         times["features"].push_back(s.features_ms);
@@ -203,11 +246,19 @@ int main(int argc, char** argv) {
         times["icp"].push_back(s.icp_ms);
         times["mhpo"].push_back(s.mhpo_ms);
         times["post_refine"].push_back(s.post_refine_ms);
+        times["finalists"].push_back(s.finalists_ms);
         times["total"].push_back(s.total_ms);
         ++done;
-        std::fprintf(stderr, "[%d] scene %d im %d obj %d: %s S %.3f ADD%s %.1f mm (%.2f d) %.0f ms\n", done,
+        std::fprintf(stderr, "[%d] scene %d im %d obj %d: %s%s%s S %.3f ADD%s %.1f mm (%.2f d) %.0f ms", done,
                      target.scene_id, target.im_id, target.obj_id, result.success ? "ok" : result.message.c_str(),
-                     result.score, object.symmetric ? "-S" : "", final_error * 1000, final_error / object.diameter_m, s.total_ms);
+                     result.truncated ? " (truncated)" : "", result.ambiguous ? " (ambiguous)" : "", result.score,
+                     object.symmetric ? "-S" : "",
+                     final_error * 1000, final_error / object.diameter_m, s.total_ms);
+        if (has_gt_score) {
+          std::fprintf(stderr, " | S(GT) %.3f (1-J %.3f, depth %.3f, occluded %d px)", gt_score.s, 1.0 - gt_score.iou,
+                       options.score.lambda_s * gt_score.depth_residual, gt_score.occluded_pixels);
+        }
+        std::fprintf(stderr, "\n");
         if (limit > 0 && done >= limit) break;
       }
       if (limit > 0 && done >= limit) break;
@@ -242,11 +293,23 @@ int main(int argc, char** argv) {
       std::printf(" |\noracle all: some PnP pose correct %.1f%%, some kept pose correct %.1f%%", 100.0 * pnp / std::max(1, all.total),
                   100.0 * kept / std::max(1, all.total));
     }
+    if (score_gt) {
+      std::printf(" |\n\nmisses by cause (--score-gt): search failure = S(GT) < S_A (a better pose by S exists, not found);"
+                  " score failure = S(GT) >= S_A (S prefers the wrong pose)\n| object | misses | search | score |\n|---|---|---|---|\n");
+      int search = 0, score = 0;
+      for (const auto& [obj_id, tally] : tallies) {
+        std::printf("| %s | %d | %d | %d |\n", g6d::BopObjectName(obj_id).c_str(), tally.search_failures + tally.score_failures,
+                    tally.search_failures, tally.score_failures);
+        search += tally.search_failures;
+        score += tally.score_failures;
+      }
+      std::printf("| **all** | %d | %d | %d", search + score, search, score);
+    }
     struct rusage usage;
     getrusage(RUSAGE_SELF, &usage);
     std::printf(" |\n\npeak resident memory: %.0f MB\n", usage.ru_maxrss / 1024.0);
     std::printf("\nlatency per instance (ms)\n| stage | p50 | p95 |\n|---|---|---|\n");
-    for (const char* stage : {"features", "match", "pnp", "observable", "icp", "mhpo", "post_refine", "total"}) {
+    for (const char* stage : {"features", "match", "pnp", "observable", "icp", "mhpo", "post_refine", "finalists", "total"}) {
       std::printf("| %s | %.1f | %.1f |\n", stage, Percentile(times[stage], 0.5), Percentile(times[stage], 0.95));
     }
     return 0;

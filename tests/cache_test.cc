@@ -52,6 +52,28 @@ TemplateBank MakeBank(int num_templates, uint32_t seed) {
       Eigen::AlignedBox3d(Eigen::Vector3d(-0.05, -0.04, -0.03), Eigen::Vector3d(0.05, 0.04, 0.03));
   bank.symmetries.push_back(
       MakePose(ExpSO3(Eigen::Vector3d(0.0, 0.0, M_PI)), Eigen::Vector3d(0.001, 0.0, 0.0)));
+  bank.options.find_symmetries = false;
+  bank.options.symmetry.sample_points = 321;
+  bank.options.symmetry.mean_tolerance = 0.02;
+  bank.options.symmetry.max_order = 5;
+  bank.options.symmetry.seed = 9;
+  bank.options.appearance.sample_points = 77;
+  bank.options.appearance.seed = 11;
+  bank.options.appearance.min_color_std = 0.05;
+  bank.options.appearance.texture_max_side_px = 512;
+  bank.geometric_symmetries.revolution = true;
+  bank.geometric_symmetries.axis = Eigen::Vector3d(0.6, 0.0, 0.8);
+  bank.geometric_symmetries.point = Eigen::Vector3d(0.001, -0.002, 0.003);
+  bank.geometric_symmetries.worst_error = 0.004;
+  bank.geometric_symmetries.worst_p95_error = 0.009;
+  bank.geometric_symmetries.diameter_m = 0.123;
+  bank.geometric_symmetries.discrete.push_back(
+      MakePose(ExpSO3(Eigen::Vector3d(M_PI, 0.0, 0.0)), Eigen::Vector3d(0.0, 0.002, 0.0)));
+  for (int i = 0; i < 20; ++i) {
+    bank.appearance.points.emplace_back(uniform(rng), uniform(rng), uniform(rng));
+    bank.appearance.normals.push_back(Eigen::Vector3f(uniform(rng), uniform(rng), 1.0f).normalized());
+    bank.appearance.colors.emplace_back(byte(rng) / 255.0f, byte(rng) / 255.0f, byte(rng) / 255.0f);
+  }
   for (int i = 0; i < 10; ++i) {
     bank.online_mesh.vertices.emplace_back(uniform(rng), uniform(rng), uniform(rng));
     bank.online_mesh.normals.emplace_back(
@@ -116,6 +138,32 @@ void ExpectSameBank(const TemplateBank& a, const TemplateBank& b) {
   EXPECT_EQ(o.online_mesh_faces, p.online_mesh_faces);
   EXPECT_EQ(o.max_view_angle_deg, p.max_view_angle_deg);
   EXPECT_EQ(o.thumbnail_size_px, p.thumbnail_size_px);
+  EXPECT_EQ(o.find_symmetries, p.find_symmetries);
+  EXPECT_EQ(o.symmetry.sample_points, p.symmetry.sample_points);
+  EXPECT_EQ(o.symmetry.mean_tolerance, p.symmetry.mean_tolerance);
+  EXPECT_EQ(o.symmetry.max_tolerance, p.symmetry.max_tolerance);
+  EXPECT_EQ(o.symmetry.max_order, p.symmetry.max_order);
+  EXPECT_EQ(o.symmetry.seed, p.symmetry.seed);
+  EXPECT_EQ(o.sample_appearance, p.sample_appearance);
+  EXPECT_EQ(o.appearance.sample_points, p.appearance.sample_points);
+  EXPECT_EQ(o.appearance.seed, p.appearance.seed);
+  EXPECT_EQ(o.appearance.min_color_std, p.appearance.min_color_std);
+  EXPECT_EQ(o.appearance.texture_max_side_px, p.appearance.texture_max_side_px);
+  const MeshSymmetries& g = a.geometric_symmetries;
+  const MeshSymmetries& h = b.geometric_symmetries;
+  EXPECT_EQ(g.revolution, h.revolution);
+  EXPECT_TRUE(g.axis == h.axis && g.point == h.point);
+  EXPECT_EQ(g.worst_error, h.worst_error);
+  EXPECT_EQ(g.worst_p95_error, h.worst_p95_error);
+  EXPECT_EQ(g.diameter_m, h.diameter_m);
+  ASSERT_EQ(g.discrete.size(), h.discrete.size());
+  for (size_t i = 0; i < g.discrete.size(); ++i) EXPECT_TRUE(g.discrete[i].matrix() == h.discrete[i].matrix());
+  ASSERT_EQ(a.appearance.points.size(), b.appearance.points.size());
+  for (size_t i = 0; i < a.appearance.points.size(); ++i) {
+    EXPECT_EQ(a.appearance.points[i], b.appearance.points[i]);
+    EXPECT_EQ(a.appearance.normals[i], b.appearance.normals[i]);
+    EXPECT_LE((a.appearance.colors[i] - b.appearance.colors[i]).cwiseAbs().maxCoeff(), 0.5f / 255.0f);  // 8 bits
+  }
   const Camera& c = a.template_camera;
   const Camera& d = b.template_camera;
   EXPECT_EQ(c.fx, d.fx);
@@ -274,12 +322,13 @@ TEST(TemplateCache, TruncatedFileIsRefused) {
 
 TEST(TemplateCache, WrongVersionIsRefused) {
   std::string file = EncodedBank(MakeBank(1, 6), "cache_version");
-  file[8] = 2;
+  file[8] = 1;  // a version-1 cache (before symmetries and appearance samples)
   ResealHeader(&file);
-  ExpectRefused(file, "unsupported cache format version 2 (expected 1)");
-  file[8] = 1;  // even an unsealed header with the right version is still checked
+  ExpectRefused(file, "unsupported cache format version 1 (expected 2; version 2 stores the mesh's geometric "
+                      "symmetries and appearance samples)");
+  file[8] = 2;  // even an unsealed header with the right version is still checked
   file[9] = 1;
-  ExpectRefused(file, "unsupported cache format version 257");
+  ExpectRefused(file, "unsupported cache format version 258");
 }
 
 TEST(TemplateCache, BadMagicIsRefused) {

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/error.h"
 #include "core/se3.h"
 #include "eval/metrics.h"
 #include "mesh/mesh.h"
@@ -127,7 +128,11 @@ TEST_F(PipelineTest, BadInputGivesAClearReason) {
   expect_bad(frame, {"box", cv::Mat::zeros(480, 640, CV_8U)}, "empty");
   cv::Mat border = view.mask.clone();
   border(cv::Rect(0, 200, 40, 10)).setTo(255);
-  expect_bad(frame, {"box", border}, "border");
+  SolverOptions refuse_border;
+  refuse_border.reject_border_masks = true;
+  const PoseResult refused = EstimatePose(frame, {"box", border}, *bank_, refuse_border, &executor);
+  EXPECT_EQ(refused.termination, Termination::kBadInput);
+  EXPECT_NE(refused.message.find("border"), std::string::npos) << refused.message;
   Frame no_depth = frame;
   no_depth.depth = cv::Mat::zeros(480, 640, CV_32F);
   expect_bad(no_depth, {"box", view.mask}, "valid depth");
@@ -136,6 +141,73 @@ TEST_F(PipelineTest, BadInputGivesAClearReason) {
   expect_bad(nan_k, {"box", view.mask}, "fx");
   expect_bad(frame, {"obj_000005", view.mask}, "not 'obj_000005'");
   expect_bad(frame, {"box", cv::Mat::zeros(10, 10, CV_8U)}, "mask must be");
+}
+
+TEST_F(PipelineTest, TruncatedObjectIsSolvedByDefaultAndSaysSo) {
+  GlRenderer renderer(*mesh_);
+  ThreadPool pool(2);
+  std::mt19937_64 rng(77);
+  int correct = 0, truncated = 0;
+  const int trials = 4;
+  for (int trial = 0; trial < trials; ++trial) {
+    Eigen::Isometry3d truth = test::RandomPose(kCamera, 0.5, 0.7, &rng);
+    // Move the object's centre onto the left image border: about half of it is cut off.
+    const Eigen::Vector3d centre = truth * bank_->bounding_box.center();
+    truth.translation().x() += (0.0 - kCamera.cx) * centre.z() / kCamera.fx - centre.x();
+    const test::SyntheticView view = test::RenderSyntheticView(&renderer, *mesh_, kCamera, truth, {});
+    const PoseResult result = EstimatePose(MakeFrame(view), {"box", view.mask}, *bank_, SolverOptions(), &pool);
+    ASSERT_TRUE(result.success) << result.message;
+    truncated += result.truncated;
+    correct += ComputeAdd(result.cam_from_object, truth, mesh_->vertices) < 0.1 * bank_->diameter_m;
+  }
+  EXPECT_EQ(truncated, trials);
+  EXPECT_GE(correct, trials - 1);
+}
+
+TEST_F(PipelineTest, ScoreInstancePoseIsLowAtTheTruthAndHighFarFromIt) {
+  GlRenderer renderer(*mesh_);
+  std::mt19937_64 rng(5);
+  const Eigen::Isometry3d truth = test::RandomPose(kCamera, 0.5, 0.7, &rng);
+  test::SyntheticOptions synthetic;
+  synthetic.occlusion = 0.3;  // an occluder no mask covers, 10 cm in front
+  const test::SyntheticView view = test::RenderSyntheticView(&renderer, *mesh_, kCamera, truth, synthetic);
+  const SolverOptions options;
+  const PoseScore at_truth = ScoreInstancePose(MakeFrame(view), {"box", view.mask}, *bank_, options, truth);
+  Eigen::Isometry3d moved = truth;
+  moved.translation().x() += 0.03;
+  const PoseScore off = ScoreInstancePose(MakeFrame(view), {"box", view.mask}, *bank_, options, moved);
+  EXPECT_GT(at_truth.occluded_pixels, 0);  // the hidden part is recognised ...
+  EXPECT_GT(at_truth.iou, 0.9);            // ... and does not count against the truth
+  EXPECT_LT(at_truth.s, off.s);
+  SolverOptions no_occlusion;
+  no_occlusion.score.occlusion_margin_m = 0.0;
+  const PoseScore naive = ScoreInstancePose(MakeFrame(view), {"box", view.mask}, *bank_, no_occlusion, truth);
+  EXPECT_LT(naive.iou, at_truth.iou - 0.1);
+  EXPECT_THROW(ScoreInstancePose(MakeFrame(view), {"box", cv::Mat::zeros(480, 640, CV_8U)}, *bank_, options, truth),
+               Error);
+}
+
+TEST_F(PipelineTest, PrintedBoxFlipIsResolvedByAppearanceAndNotReportedAsAmbiguous) {
+  // The box's shape has three 180-degree flips; its print has none. The cache keeps both
+  // the geometric symmetries and the coloured samples.
+  ASSERT_EQ(bank_->geometric_symmetries.discrete.size(), 3u) << bank_->geometric_symmetries.Describe();
+  ASSERT_FALSE(bank_->appearance.Empty());
+  GlRenderer renderer(*mesh_);
+  ThreadPool pool(2);
+  std::mt19937_64 rng(31);
+  int correct = 0;
+  const int trials = 6;
+  for (int trial = 0; trial < trials; ++trial) {
+    const Eigen::Isometry3d truth = test::RandomPose(kCamera, 0.5, 0.8, &rng);
+    const test::SyntheticView view = test::RenderSyntheticView(&renderer, *mesh_, kCamera, truth, {});
+    const PoseResult result = EstimatePose(MakeFrame(view), {"box", view.mask}, *bank_, SolverOptions(), &pool);
+    ASSERT_TRUE(result.success) << result.message;
+    EXPECT_TRUE(result.appearance_valid);
+    EXPECT_FALSE(result.ambiguous) << "trial " << trial << ": runner-up S " << result.runner_up_score << " vs "
+                                   << result.score;
+    correct += ComputeAdd(result.cam_from_object, truth, mesh_->vertices) < 0.1 * bank_->diameter_m;
+  }
+  EXPECT_EQ(correct, trials);
 }
 
 }  // namespace

@@ -239,8 +239,12 @@ int main(int argc, char** argv) {
         "total %zu\n",
         object_id.c_str(), bank.templates.size(), counts.empty() ? 0 : counts.front(), median,
         counts.empty() ? 0 : counts.back(), bank.NumKeypoints());
-    std::printf("diameter %.1f mm, %zu symmetries, online mesh %zu faces\n",
+    std::printf("diameter %.1f mm, %zu symmetries given, online mesh %zu faces\n",
                 bank.diameter_m * 1000.0, bank.symmetries.size(), bank.online_mesh.faces.size());
+    std::printf("geometric symmetries: %s\n", bank.geometric_symmetries.Describe().c_str());
+    std::printf("appearance: %s\n", bank.appearance.Empty()
+                                          ? "none (no texture or vertex colours, or uniform): no appearance tie-break"
+                                          : (std::to_string(bank.appearance.points.size()) + " coloured surface samples").c_str());
     std::printf("wrote %s (%s) in %.2f s\n", out_path.c_str(),
                 HumanBytes(std::filesystem::file_size(out_path)).c_str(), seconds);
     return 0;

@@ -43,7 +43,10 @@ void PrintSummary(const g6d::TemplateBank& bank, const std::string& path) {
   std::printf("bounding box    min (%.2f, %.2f, %.2f) max (%.2f, %.2f, %.2f) mm\n",
               box.min().x() * 1e3, box.min().y() * 1e3, box.min().z() * 1e3, box.max().x() * 1e3,
               box.max().y() * 1e3, box.max().z() * 1e3);
-  std::printf("symmetries      %zu\n", bank.symmetries.size());
+  std::printf("symmetries      %zu given; geometric: %s\n", bank.symmetries.size(),
+              bank.geometric_symmetries.Describe().c_str());
+  std::printf("appearance      %zu coloured samples%s\n", bank.appearance.points.size(),
+              bank.appearance.Empty() ? " (none: no appearance tie-break)" : "");
   std::printf("online mesh     %zu vertices, %zu faces, %s\n", bank.online_mesh.vertices.size(),
               bank.online_mesh.faces.size(),
               g6d::IsClosedAndOriented(bank.online_mesh) ? "closed and oriented" : "open or inconsistently oriented");

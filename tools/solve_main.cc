@@ -78,9 +78,10 @@ int main(int argc, char** argv) {
   app.add_option("--hypotheses", hypotheses, "K = N_H, hypotheses refined by ICP and MHPO")->capture_default_str();
   app.add_option("--threads", threads, "worker threads")->capture_default_str();
   app.add_flag("--no-mhpo", no_mhpo, "skip MHPO (ablation)");
-  bool post_refine = false, allow_border = false;
+  bool post_refine = false, allow_border = false, reject_border = false;
   app.add_flag("--post-refine", post_refine, "optional stage 6: retry a poor pose from flipped / re-centred hypotheses");
-  app.add_flag("--allow-border-masks", allow_border, "solve a mask that touches the image border (refused by default)");
+  app.add_flag("--allow-border-masks", allow_border, "solve a mask that touches the image border (the default; kept for old scripts)");
+  app.add_flag("--reject-border-masks", reject_border, "refuse a mask that touches the image border (a truncated object)");
   app.add_option("--overlay", overlay_path, "write the image with the projected model contour and axes");
   app.add_option("--json", json_path, "write the result as JSON");
   CLI11_PARSE(app, argc, argv);
@@ -102,7 +103,8 @@ int main(int argc, char** argv) {
     options.num_hypotheses = hypotheses;
     options.run_mhpo = !no_mhpo;
     options.post_refine = post_refine;
-    options.reject_border_masks = !allow_border;
+    if (allow_border && reject_border) G6D_THROW("--allow-border-masks and --reject-border-masks contradict each other");
+    options.reject_border_masks = reject_border;
     g6d::ThreadPool pool(std::max(1, threads));
     const g6d::PoseResult result = g6d::EstimatePose(frame, instance, bank, options, &pool);
     const g6d::StageReport& s = result.stages;
@@ -111,6 +113,7 @@ int main(int argc, char** argv) {
     std::printf("object      %s\n", bank.object_id.c_str());
     std::printf("status      %s (%s)\n", result.success ? "ok" : "failed", g6d::TerminationName(result.termination));
     if (!result.success) std::printf("reason      %s\n", result.message.c_str());
+    if (result.truncated) std::printf("truncated   the mask touches the image border: the object is cut off\n");
     std::printf("t (m)       %.4f %.4f %.4f\n", t.x(), t.y(), t.z());
     std::printf("q (wxyz)    %.5f %.5f %.5f %.5f\n", q.w(), q.x(), q.y(), q.z());
     std::printf("S_A         %.4f   confidence %.3f   IoU %.3f   depth residual %.4f\n", result.score,
@@ -139,6 +142,7 @@ int main(int argc, char** argv) {
       j["confidence"] = result.confidence;
       j["iou"] = result.details.iou;
       j["depth_residual"] = result.details.depth_residual;
+      j["truncated"] = result.truncated;
       j["stages"] = {{"query_features", s.query_features}, {"correspondence_sets", s.correspondence_sets},
                      {"pnp_hypotheses", s.pnp_hypotheses}, {"kept_hypotheses", s.kept_hypotheses},
                      {"icp_converged", s.icp_converged}, {"best_e_obs", s.best_e_obs},

@@ -37,8 +37,8 @@ struct TargetInterpolators {
   explicit TargetInterpolators(const MhpoTarget& target)
       : sdf_grid(target.signed_distance.ptr<float>(), 0, target.signed_distance.rows, 0,
                  target.signed_distance.cols),
-        depth_grid(target.grid->depth.ptr<float>(), 0, target.grid->depth.rows, 0,
-                   target.grid->depth.cols),
+        depth_grid(target.filled_depth.ptr<float>(), 0, target.filled_depth.rows, 0,
+                   target.filled_depth.cols),
         sdf(sdf_grid),
         depth(depth_grid) {}
   Grid sdf_grid;
@@ -148,16 +148,23 @@ void RunRound(const MhpoOptions& options, const ScoreOptions& score_options, con
   const cv::Mat& rendered = state->raster.depth;
 
   std::vector<Eigen::Vector3d> contour, surface;
+  const int last_u = rendered.cols - 1, last_v = rendered.rows - 1;
   for (int v = 0; v < rendered.rows; ++v) {
     for (int u = 0; u < rendered.cols; ++u) {
       const float z = rendered.at<float>(v, u);
       if (!(z > 0.0f)) continue;
       const Eigen::Vector3d point = camera.Backproject(PixelCentre(u, v), z);
-      const bool edge = u == 0 || v == 0 || u + 1 == rendered.cols || v + 1 == rendered.rows ||
-                        !(rendered.at<float>(v, u - 1) > 0.0f) || !(rendered.at<float>(v, u + 1) > 0.0f) ||
+      const bool in_mask = grid.mask.at<uint8_t>(v, u) != 0;
+      if (in_mask && DepthSupportValid(grid.depth, u, v)) surface.push_back(point);
+      // Contour points on the grid's edge are where the rendering leaves the ROI or the
+      // image (a truncated object): there is no observed boundary to pull them to. Contour
+      // points hidden behind an unmasked occluder have none either.
+      if (u == 0 || v == 0 || u == last_u || v == last_v) continue;
+      const bool edge = !(rendered.at<float>(v, u - 1) > 0.0f) || !(rendered.at<float>(v, u + 1) > 0.0f) ||
                         !(rendered.at<float>(v - 1, u) > 0.0f) || !(rendered.at<float>(v + 1, u) > 0.0f);
-      if (edge) contour.push_back(point);
-      if (grid.mask.at<uint8_t>(v, u) && DepthSupportValid(grid.depth, u, v)) surface.push_back(point);
+      if (!edge) continue;
+      if (!in_mask && IsOccluded(z, grid.depth.at<float>(v, u), score_options)) continue;
+      contour.push_back(point);
     }
   }
   if (contour.size() < 6) {
@@ -223,10 +230,39 @@ void RunRound(const MhpoOptions& options, const ScoreOptions& score_options, con
 
 }  // namespace
 
-MhpoTarget MakeMhpoTarget(const EvaluationGrid& grid, double z_m) {
+MhpoTarget MakeMhpoTarget(const EvaluationGrid& grid, double z_m, int fill_radius_px) {
   MhpoTarget target;
   target.grid = &grid;
   target.z_m = z_m;
+  // Grow valid depth into holes one ring per pass (mean of the valid 8-neighbours).
+  target.filled_depth = grid.depth.clone();
+  for (int pass = 0; pass < fill_radius_px; ++pass) {
+    const cv::Mat previous = target.filled_depth.clone();
+    bool changed = false;
+    for (int v = 0; v < previous.rows; ++v) {
+      for (int u = 0; u < previous.cols; ++u) {
+        if (previous.at<float>(v, u) > 0.0f) continue;
+        double sum = 0.0;
+        int count = 0;
+        for (int dv = -1; dv <= 1; ++dv) {
+          for (int du = -1; du <= 1; ++du) {
+            const int uu = u + du, vv = v + dv;
+            if (uu < 0 || vv < 0 || uu >= previous.cols || vv >= previous.rows) continue;
+            const float z = previous.at<float>(vv, uu);
+            if (z > 0.0f) {
+              sum += z;
+              ++count;
+            }
+          }
+        }
+        if (count > 0) {
+          target.filled_depth.at<float>(v, u) = static_cast<float>(sum / count);
+          changed = true;
+        }
+      }
+    }
+    if (!changed) break;
+  }
   cv::Mat inside_distance, outside_distance;
   const cv::Mat inside = grid.mask > 0;
   const cv::Mat outside = grid.mask == 0;
@@ -312,6 +348,8 @@ void RefineByMhpo(const MhpoOptions& options, const ScoreOptions& score_options,
   report->best_score = states[static_cast<size_t>(best)].best_score;
   for (HypothesisState& state : states) {
     state.report.best_s = state.best_score.s;
+    state.report.best_cam_from_object = state.best;
+    state.report.best_score = state.best_score;
     report->hypotheses.push_back(state.report);
   }
   report->success = true;

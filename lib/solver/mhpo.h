@@ -46,10 +46,15 @@ struct MhpoTarget {
   const EvaluationGrid* grid = nullptr;  ///< observed mask and depth on the ROI grid
   double z_m = 0.0;                      ///< z_M (eq. 9), metres
   cv::Mat signed_distance;               ///< CV_32F on the grid, px: > 0 outside the mask
+  /// Observed depth with small holes filled from their valid neighbours (CV_32F, metres):
+  /// what the depth residuals interpolate, so a step that moves a point next to a hole
+  /// reads a plausible depth instead of the hole's 0.
+  cv::Mat filled_depth;
 };
 
-/// Builds the signed distance of grid->mask (grid pixels; positive outside the mask).
-MhpoTarget MakeMhpoTarget(const EvaluationGrid& grid, double z_m);
+/// Builds the signed distance of grid->mask (grid pixels; positive outside the mask) and
+/// the hole-filled depth (holes up to `fill_radius_px` grid pixels from valid depth).
+MhpoTarget MakeMhpoTarget(const EvaluationGrid& grid, double z_m, int fill_radius_px = 3);
 
 /// Per-hypothesis outcome.
 struct MhpoHypothesisReport {
@@ -57,6 +62,8 @@ struct MhpoHypothesisReport {
   double best_s = 0.0;
   int rounds = 0;
   int best_round = 0;  ///< 0 = the initial pose was the best
+  Eigen::Isometry3d best_cam_from_object = Eigen::Isometry3d::Identity();  ///< its best state
+  PoseScore best_score;  ///< S and its parts at that state
 };
 
 /// What MHPO did.

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <vector>
 
 #include <opencv2/imgproc.hpp>
 
@@ -33,6 +34,23 @@ double MeanMaskedDepth(const cv::Mat& mask, const cv::Mat& depth, int* valid_pix
   }
   if (valid_pixels) *valid_pixels = count;
   return count > 0 ? sum / count : 0.0;
+}
+
+double MedianMaskedDepth(const cv::Mat& mask, const cv::Mat& depth, int* valid_pixels) {
+  G6D_CHECK(mask.type() == CV_8U && depth.type() == CV_32F && mask.size() == depth.size());
+  std::vector<float> values;
+  for (int v = 0; v < mask.rows; ++v) {
+    const uint8_t* m = mask.ptr<uint8_t>(v);
+    const float* d = depth.ptr<float>(v);
+    for (int u = 0; u < mask.cols; ++u) {
+      if (m[u] && d[u] > 0.0f && std::isfinite(d[u])) values.push_back(d[u]);
+    }
+  }
+  if (valid_pixels) *valid_pixels = static_cast<int>(values.size());
+  if (values.empty()) return 0.0;
+  const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), middle, values.end());
+  return *middle;
 }
 
 EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, const cv::Mat& depth,

@@ -47,4 +47,11 @@ EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, con
 /// 0 when there is none. *valid_pixels (optional) receives their count.
 double MeanMaskedDepth(const cv::Mat& mask, const cv::Mat& depth, int* valid_pixels = nullptr);
 
+/// Robust z_M: the median observed depth over mask pixels with valid depth, metres; 0 when
+/// there is none. Used instead of eq. (9)'s mean because real masks leak onto the
+/// background and the table and real depth has flying pixels at edges: a few such pixels
+/// move a mean by centimetres, the median not at all. *valid_pixels (optional) receives
+/// their count.
+double MedianMaskedDepth(const cv::Mat& mask, const cv::Mat& depth, int* valid_pixels = nullptr);
+
 }  // namespace g6d

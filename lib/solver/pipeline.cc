@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <memory>
+#include <limits>
 #include <numeric>
 #include <sstream>
 
@@ -24,12 +26,18 @@ std::string SolverOptions::Check() const {
   if (bad.empty()) bad = refine_grid.Check();
   if (bad.empty()) bad = icp.Check();
   if (bad.empty()) bad = mhpo.Check();
+  if (bad.empty()) bad = appearance.Check();
   if (!bad.empty()) return bad;
   std::ostringstream out;
   if (num_hypotheses < 1) out << "SolverOptions.num_hypotheses must be >= 1 (got " << num_hypotheses << ")";
   else if (max_observed_points < 10) out << "SolverOptions.max_observed_points must be >= 10 (got " << max_observed_points << ")";
   else if (max_source_points < 10) out << "SolverOptions.max_source_points must be >= 10 (got " << max_source_points << ")";
   else if (min_valid_depth_pixels < 3) out << "SolverOptions.min_valid_depth_pixels must be >= 3 (got " << min_valid_depth_pixels << ")";
+  else if (!(distinct_pose_fraction >= 0.0 && distinct_pose_fraction < 1.0)) out << "SolverOptions.distinct_pose_fraction must be in [0, 1) (got " << distinct_pose_fraction << ")";
+  else if (!(ambiguity_distance_fraction > 0.0 && ambiguity_distance_fraction < 10.0)) out << "SolverOptions.ambiguity_distance_fraction must be in (0, 10) (got " << ambiguity_distance_fraction << ")";
+  else if (!(ambiguity_margin >= 0.0 && ambiguity_margin < 2.0)) out << "SolverOptions.ambiguity_margin must be in [0, 2) (got " << ambiguity_margin << ")";
+  else if (!(appearance_margin >= 0.0 && appearance_margin < 2.0)) out << "SolverOptions.appearance_margin must be in [0, 2) (got " << appearance_margin << ")";
+  else if (!(appearance_min_gain >= 0.0 && appearance_min_gain <= 2.0)) out << "SolverOptions.appearance_min_gain must be in [0, 2] (got " << appearance_min_gain << ")";
   else if (!(confidence_slope > 0.0)) out << "SolverOptions.confidence_slope must be > 0 (got " << confidence_slope << ")";
   return out.str();
 }
@@ -78,12 +86,65 @@ bool TouchesBorder(const cv::Rect& box, const cv::Size& size) {
   return box.x == 0 || box.y == 0 || box.x + box.width == size.width || box.y + box.height == size.height;
 }
 
-// Visible model points of a rendering on `grid` at `cam_from_object`, in the object frame.
-std::vector<Eigen::Vector3d> VisibleModelPoints(const Mesh& mesh, const Camera& camera,
+// The observed data of one instance, shared read-only by every hypothesis.
+struct Observation {
+  cv::Mat mask;              // CV_8U 0/255, frame size
+  cv::Mat depth;             // CV_32F metres, NaN patched to 0
+  cv::Rect box;              // mask bounding box
+  double z_m = 0.0;          // robust z_M (median; eq. (9) uses the mean)
+  int valid_depth = 0;       // mask pixels with valid depth
+  bool truncated = false;    // the mask touches the image border
+  std::unique_ptr<PointCloudIndex> observed;  // Y: observed points inside the mask
+  EvaluationGrid selection_grid, refine_grid;
+};
+
+// Fills *observation; returns an empty string, or what is wrong with the input.
+std::string PrepareObservation(const Frame& frame, const Instance& instance, const SolverOptions& options,
+                               Observation* observation) {
+  observation->mask = instance.mask > 0;
+  const cv::Mat& mask = observation->mask;
+  observation->box = cv::boundingRect(mask);
+  const cv::Rect& box = observation->box;
+  if (box.area() == 0) return "the instance mask is empty";
+  observation->truncated = TouchesBorder(box, mask.size());
+  if (options.reject_border_masks && observation->truncated) {
+    return "the instance mask touches the image border (object truncated; solved unless reject_border_masks)";
+  }
+  observation->depth = frame.depth.clone();
+  cv::Mat& depth = observation->depth;
+  cv::patchNaNs(depth, 0.0);
+  int& valid_depth = observation->valid_depth;
+  observation->z_m = MedianMaskedDepth(mask, depth, &valid_depth);  // eq. (9), robust
+  if (valid_depth < options.min_valid_depth_pixels) {
+    return "the mask has " + std::to_string(valid_depth) + " pixels with valid depth (need " +
+           std::to_string(options.min_valid_depth_pixels) + ")";
+  }
+  // Observed cloud Y, deterministic image-space subsampling.
+  const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(valid_depth) / options.max_observed_points))));
+  std::vector<Eigen::Vector3d> observed;
+  for (int v = box.y + stride / 2; v < box.y + box.height; v += stride) {
+    for (int u = box.x + stride / 2; u < box.x + box.width; u += stride) {
+      const float z = depth.at<float>(v, u);
+      if (mask.at<uint8_t>(v, u) && z > 0.0f) observed.push_back(frame.camera.Backproject(PixelCentre(u, v), z));
+    }
+  }
+  observation->observed = std::make_unique<PointCloudIndex>(std::move(observed));
+  observation->selection_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.selection_grid);
+  observation->refine_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.refine_grid);
+  return "";
+}
+
+// Visible model points of a rendering on `grid` at `cam_from_object`, in the object frame:
+// the ICP source. Pixels hidden behind an unmasked occluder (outside the mask, observed
+// depth in front) are left out: nothing observed can match them. Parts outside the image
+// are never on the grid.
+std::vector<Eigen::Vector3d> VisibleModelPoints(const Mesh& mesh, const EvaluationGrid& grid,
                                                 const Eigen::Isometry3d& cam_from_object,
-                                                int max_points, RasterImage* scratch) {
+                                                const ScoreOptions& score_options, int max_points,
+                                                RasterImage* scratch) {
   RasterOptions raster_options;
   raster_options.want_face_id = false;
+  const Camera& camera = grid.camera;
   Rasterize(mesh, camera, cam_from_object, raster_options, scratch);
   const int count = std::max(1, scratch->pixel_count);
   const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(count) / max_points))));
@@ -91,11 +152,130 @@ std::vector<Eigen::Vector3d> VisibleModelPoints(const Mesh& mesh, const Camera& 
   std::vector<Eigen::Vector3d> points;
   for (int v = stride / 2; v < scratch->depth.rows; v += stride) {
     const float* row = scratch->depth.ptr<float>(v);
+    const uint8_t* mask = grid.mask.ptr<uint8_t>(v);
+    const float* observed = grid.depth.ptr<float>(v);
     for (int u = stride / 2; u < scratch->depth.cols; u += stride) {
-      if (row[u] > 0.0f) points.push_back(object_from_cam * camera.Backproject(PixelCentre(u, v), row[u]));
+      if (!(row[u] > 0.0f)) continue;
+      if (!mask[u] && IsOccluded(row[u], observed[u], score_options)) continue;
+      points.push_back(object_from_cam * camera.Backproject(PixelCentre(u, v), row[u]));
     }
   }
   return points;
+}
+
+// The symmetries under which two poses are the same answer: those the user gave (BOP
+// models_info.json), and the mesh's geometric ones unless the model is coloured. A printed
+// box's 180-degree flips have the same shape but not the same print: they must stay apart
+// (as hypotheses and as finalists) so that appearance can choose between them.
+MeshSymmetries AnswerSymmetries(const TemplateBank& bank) {
+  MeshSymmetries symmetries;
+  if (bank.appearance.Empty()) symmetries = bank.geometric_symmetries;
+  for (const Eigen::Isometry3d& g : bank.symmetries) symmetries.discrete.push_back(g);
+  return symmetries;
+}
+
+// Up to `count` vertices of the online mesh (even stride): the points of pose distances.
+std::vector<Eigen::Vector3d> DistancePoints(const Mesh& mesh, size_t count) {
+  std::vector<Eigen::Vector3d> points;
+  const size_t step = std::max<size_t>(1, mesh.vertices.size() / count);
+  for (size_t i = 0; i < mesh.vertices.size(); i += step) points.push_back(mesh.vertices[i].cast<double>());
+  return points;
+}
+
+// ADD between two poses modulo the symmetries, metres: the smallest mean distance of the
+// points under `a` and under b * g over g in {identity, discrete}; with a revolution the
+// rotation about the axis is optimal in closed form (2D Procrustes about the axis), so this
+// stays cheap enough to compare every pair of hypotheses.
+double PoseDistance(const MeshSymmetries& symmetries, const std::vector<Eigen::Vector3d>& points,
+                    const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  double best = std::numeric_limits<double>::infinity();
+  const Eigen::Vector3d& n = symmetries.axis;
+  const Eigen::Vector3d& c = symmetries.point;
+  auto one = [&](const Eigen::Isometry3d& b_g) {
+    const Eigen::Isometry3d relative = b_g.inverse() * a;  // object frame of b_g
+    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+    if (symmetries.revolution) {
+      double cos_sum = 0.0, sin_sum = 0.0;
+      for (const Eigen::Vector3d& x : points) {
+        const Eigen::Vector3d p = relative * x - c, q = x - c;
+        const Eigen::Vector3d p_perp = p - p.dot(n) * n, q_perp = q - q.dot(n) * n;
+        cos_sum += q_perp.dot(p_perp);
+        sin_sum += n.dot(q_perp.cross(p_perp));
+      }
+      rotation = Eigen::AngleAxisd(std::atan2(sin_sum, cos_sum), n).toRotationMatrix();
+    }
+    double sum = 0.0;
+    for (const Eigen::Vector3d& x : points) sum += ((relative * x) - (c + rotation * (x - c))).norm();
+    best = std::min(best, sum / std::max<size_t>(1, points.size()));
+  };
+  one(b);
+  for (const Eigen::Isometry3d& g : symmetries.discrete) one(b * g);
+  return best;
+}
+
+struct Finalist {
+  Eigen::Isometry3d cam_from_object;
+  PoseScore score;
+};
+
+// Among the finalists (T_A last): drops poses equal modulo the symmetries to a better one,
+// lets appearance pick among those within options.appearance_margin of the best S, and
+// sets the runner-up and the ambiguity flag of *result (whose T_A and details it may replace).
+void ResolveFinalists(const SolverOptions& options, const TemplateBank& bank, const Frame& frame, const cv::Mat& mask,
+                      const MeshSymmetries& symmetries, const std::vector<Eigen::Vector3d>& distance_points,
+                      std::vector<Finalist> finalists, PoseResult* result) {
+  StageReport& stages = result->stages;
+  std::stable_sort(finalists.begin(), finalists.end(),
+                   [](const Finalist& a, const Finalist& b) { return a.score.s < b.score.s; });
+  const double same_m = options.ambiguity_distance_fraction * bank.diameter_m;
+  std::vector<Finalist> distinct;
+  for (const Finalist& f : finalists) {
+    bool is_new = true;
+    for (size_t k = 0; k < distinct.size() && is_new; ++k) {
+      is_new = PoseDistance(symmetries, distance_points, f.cam_from_object, distinct[k].cam_from_object) > same_m;
+    }
+    if (is_new) distinct.push_back(f);
+  }
+  stages.distinct_finalists = static_cast<int>(distinct.size());
+  size_t chosen = 0;
+  std::vector<AppearanceScore> appearance(distinct.size());
+  if (options.appearance_tiebreak && !bank.appearance.Empty()) {
+    for (size_t k = 0; k < distinct.size(); ++k) {
+      if (distinct[k].score.s > distinct[0].score.s + options.appearance_margin) break;
+      appearance[k] = ScoreAppearance(options.appearance, bank.appearance, bank.online_mesh, frame.camera, frame.rgb, mask,
+                                      distinct[k].cam_from_object);
+      ++stages.appearance_compared;
+    }
+    for (size_t k = 1; k < distinct.size(); ++k) {
+      if (!appearance[k].valid) continue;
+      const double reference = appearance[chosen].valid ? appearance[chosen].agreement : -1.0;
+      if (appearance[k].agreement > reference + options.appearance_min_gain) chosen = k;
+    }
+  }
+  if (chosen != 0) stages.appearance_changed = true;
+  result->cam_from_object = distinct[chosen].cam_from_object;
+  result->details = distinct[chosen].score;
+  result->appearance_valid = appearance[chosen].valid;
+  result->appearance_agreement = appearance[chosen].agreement;
+  // Runner-up: the best distinct finalist by S that is not the answer moved by a
+  // symmetry of the shape (a printed box's flip that appearance cannot tell apart is the
+  // same shape: a symmetry, reported at build time, not an ambiguity).
+  MeshSymmetries shape_symmetries = bank.geometric_symmetries;
+  for (const Eigen::Isometry3d& g : bank.symmetries) shape_symmetries.discrete.push_back(g);
+  for (size_t k = 0; k < distinct.size(); ++k) {
+    if (k == chosen) continue;
+    if (PoseDistance(shape_symmetries, distance_points, distinct[k].cam_from_object, distinct[chosen].cam_from_object) <=
+        same_m) {
+      continue;
+    }
+    result->has_runner_up = true;
+    result->runner_up_cam_from_object = distinct[k].cam_from_object;
+    result->runner_up_score = distinct[k].score.s;
+    const bool appearance_separates = appearance[chosen].valid && appearance[k].valid &&
+                                      appearance[chosen].agreement > appearance[k].agreement + options.appearance_min_gain;
+    result->ambiguous = distinct[k].score.s < distinct[chosen].score.s + options.ambiguity_margin && !appearance_separates;
+    break;
+  }
 }
 
 // Stage 6 hypotheses from T_A: its 180-degree flips about the bounding-box axes through
@@ -125,6 +305,17 @@ std::vector<Eigen::Isometry3d> PostRefineHypotheses(const Eigen::Isometry3d& cam
 
 }  // namespace
 
+PoseScore ScoreInstancePose(const Frame& frame, const Instance& instance, const TemplateBank& bank,
+                            const SolverOptions& options, const Eigen::Isometry3d& cam_from_object) {
+  const std::string bad = ValidateInputs(frame, instance, bank, options);
+  if (!bad.empty()) G6D_THROW(bad);
+  Observation observation;
+  const std::string bad_observation = PrepareObservation(frame, instance, options, &observation);
+  if (!bad_observation.empty()) G6D_THROW(bad_observation);
+  RasterImage scratch;
+  return ScorePose(observation.refine_grid, bank.online_mesh, cam_from_object, observation.z_m, options.score, &scratch);
+}
+
 PoseResult EstimatePose(const Frame& frame, const Instance& instance, const TemplateBank& bank,
                         const SolverOptions& options, Executor* executor) {
   PoseResult result;
@@ -143,33 +334,17 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
 
     // ---- prepare the observation
     Stopwatch watch;
-    cv::Mat mask = instance.mask > 0;
-    const cv::Rect box = cv::boundingRect(mask);
-    if (box.area() == 0) return fail(Termination::kBadInput, "the instance mask is empty");
-    if (options.reject_border_masks && TouchesBorder(box, mask.size())) {
-      return fail(Termination::kBadInput, "the instance mask touches the image border (object truncated)");
-    }
-    cv::Mat depth = frame.depth.clone();
-    cv::patchNaNs(depth, 0.0);
-    int valid_depth = 0;
-    const double z_m = MeanMaskedDepth(mask, depth, &valid_depth);  // eq. (9)
-    if (valid_depth < options.min_valid_depth_pixels) {
-      return fail(Termination::kBadInput, "the mask has " + std::to_string(valid_depth) +
-                                              " pixels with valid depth (need " +
-                                              std::to_string(options.min_valid_depth_pixels) + ")");
-    }
-    // Observed cloud Y, deterministic image-space subsampling.
-    const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(valid_depth) / options.max_observed_points))));
-    std::vector<Eigen::Vector3d> observed;
-    for (int v = box.y + stride / 2; v < box.y + box.height; v += stride) {
-      for (int u = box.x + stride / 2; u < box.x + box.width; u += stride) {
-        const float z = depth.at<float>(v, u);
-        if (mask.at<uint8_t>(v, u) && z > 0.0f) observed.push_back(frame.camera.Backproject(PixelCentre(u, v), z));
-      }
-    }
-    const PointCloudIndex observed_index(std::move(observed));
-    const EvaluationGrid selection_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.selection_grid);
-    const EvaluationGrid refine_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.refine_grid);
+    Observation observation;
+    const std::string bad_observation = PrepareObservation(frame, instance, options, &observation);
+    if (!bad_observation.empty()) return fail(Termination::kBadInput, bad_observation);
+    const cv::Mat& mask = observation.mask;
+    const cv::Mat& depth = observation.depth;
+    const cv::Rect& box = observation.box;
+    const double z_m = observation.z_m;
+    const PointCloudIndex& observed_index = *observation.observed;
+    const EvaluationGrid& selection_grid = observation.selection_grid;
+    const EvaluationGrid& refine_grid = observation.refine_grid;
+    result.truncated = observation.truncated;
     stages.prepare_ms = watch.ElapsedMs();
 
     // ---- stage 1: features and template matching
@@ -226,6 +401,8 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
 
     // ---- stage 3: observable selection (eq. 7)
     watch.Restart();
+    const MeshSymmetries symmetries = AnswerSymmetries(bank);
+    const std::vector<Eigen::Vector3d> distance_points = DistancePoints(bank.online_mesh, 64);
     std::vector<PoseScore> observable(hypotheses.size());
     executor->ParallelFor(static_cast<int>(hypotheses.size()), [&](int i) {
       RasterImage scratch;
@@ -236,9 +413,23 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
     std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
       return observable[static_cast<size_t>(a)].e_obs < observable[static_cast<size_t>(b)].e_obs;
     });
-    if (order.size() > static_cast<size_t>(options.num_hypotheses)) order.resize(static_cast<size_t>(options.num_hypotheses));
+    // K slots for distinct poses: a hypothesis equal (modulo the symmetries) to a better
+    // one already kept adds nothing.
+    const double distinct_m = options.distinct_pose_fraction * bank.diameter_m;
     std::vector<Eigen::Isometry3d> kept;
-    for (int i : order) kept.push_back(hypotheses[static_cast<size_t>(i)]);
+    std::vector<int> kept_order;
+    for (int i : order) {
+      if (kept.size() >= static_cast<size_t>(options.num_hypotheses)) break;
+      const Eigen::Isometry3d& pose = hypotheses[static_cast<size_t>(i)];
+      bool distinct = true;
+      for (size_t k = 0; k < kept.size() && distinct; ++k) {
+        distinct = PoseDistance(symmetries, distance_points, pose, kept[k]) > distinct_m;
+      }
+      if (!distinct) continue;
+      kept.push_back(pose);
+      kept_order.push_back(i);
+    }
+    order = kept_order;
     stages.kept_hypotheses = static_cast<int>(kept.size());
     stages.best_e_obs = observable[static_cast<size_t>(order.front())].e_obs;
     stages.observable_pose = kept.front();
@@ -255,7 +446,7 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
       Eigen::Isometry3d& pose = kept[static_cast<size_t>(k)];
       if (options.run_icp) {
         const std::vector<Eigen::Vector3d> source =
-            VisibleModelPoints(bank.online_mesh, refine_grid.camera, pose, options.max_source_points, &scratch);
+            VisibleModelPoints(bank.online_mesh, refine_grid, pose, options.score, options.max_source_points, &scratch);
         IcpReport icp_report;
         RefineByTrimmedIcp(options.icp, source, observed_index, bank.diameter_m, &pose, &icp_report);
         icp_ok[static_cast<size_t>(k)] = icp_report.success;
@@ -288,6 +479,14 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
     }
     stages.mhpo_ms = watch.ElapsedMs();
 
+    // Finalists: every hypothesis' best state, for the runner-up and appearance.
+    std::vector<Finalist> finalists;
+    for (size_t k = 0; k < kept.size(); ++k) {
+      const bool refined = options.run_mhpo && stages.mhpo.success && k < stages.mhpo.hypotheses.size();
+      finalists.push_back(refined ? Finalist{stages.mhpo.hypotheses[k].best_cam_from_object, stages.mhpo.hypotheses[k].best_score}
+                                  : Finalist{kept[k], icp_scores[k]});
+    }
+
     // ---- stage 6 (optional): post-refinement of a poor T_A
     if (options.post_refine && result.details.s > options.post_refine_trigger_s) {
       watch.Restart();
@@ -297,7 +496,7 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
         RasterImage scratch;
         Eigen::Isometry3d& pose = extra[static_cast<size_t>(k)];
         const std::vector<Eigen::Vector3d> source =
-            VisibleModelPoints(bank.online_mesh, refine_grid.camera, pose, options.max_source_points, &scratch);
+            VisibleModelPoints(bank.online_mesh, refine_grid, pose, options.score, options.max_source_points, &scratch);
         IcpReport icp_report;
         RefineByTrimmedIcp(options.icp, source, observed_index, bank.diameter_m, &pose, &icp_report);
       });
@@ -312,6 +511,11 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
       }
       stages.post_refine_ms = watch.ElapsedMs();
     }
+    // ---- finalists: merge symmetric duplicates, appearance tie-break, ambiguity
+    watch.Restart();
+    finalists.push_back(Finalist{result.cam_from_object, result.details});  // T_A (stage 6 may have moved it)
+    ResolveFinalists(options, bank, frame, mask, symmetries, distance_points, std::move(finalists), &result);
+    stages.finalists_ms = watch.ElapsedMs();
     result.score = result.details.s;
     result.confidence = ConfidenceFromScore(options, result.score);
     result.success = true;

@@ -10,6 +10,8 @@
 #include <opencv2/core.hpp>
 
 #include "core/executor.h"
+#include "mesh/symmetry.h"
+#include "templates/appearance.h"
 #include "solver/icp.h"
 #include "solver/match.h"
 #include "solver/mhpo.h"
@@ -62,7 +64,28 @@ struct SolverOptions {
   double post_refine_trigger_s = 0.15;
   double post_refine_margin = 0.02;
   int min_valid_depth_pixels = 30;  ///< fewer valid depth pixels in the mask = bad input
-  bool reject_border_masks = true;  ///< a mask touching the image border is refused
+  /// Refuse a mask that touches the image border (a truncated object). Off: truncated
+  /// objects are solved, the rendered silhouette outside the image never counts against a
+  /// pose, and the result says `truncated`.
+  bool reject_border_masks = false;
+  /// Hypotheses closer than this fraction of the diameter (ADD modulo the mesh's
+  /// symmetries) are one pose: observable selection fills its K slots with distinct poses.
+  double distinct_pose_fraction = 0.05;
+  /// Finalists (every hypothesis' best state after MHPO) farther than this fraction of
+  /// the diameter from T_A, modulo the symmetries, are different answers; the best of them
+  /// by S is the runner-up.
+  double ambiguity_distance_fraction = 0.1;
+  /// The answer is ambiguous when the runner-up's S is within this of S_A and appearance
+  /// does not separate the two.
+  double ambiguity_margin = 0.03;
+  /// Appearance breaks geometric ties (where the cache has a coloured appearance model):
+  /// among distinct finalists whose S is within `appearance_margin` of S_A, the one whose
+  /// colours agree best with the image wins, when its agreement (ZNCC, in [-1, 1]) beats
+  /// T_A's by more than `appearance_min_gain`.
+  bool appearance_tiebreak = true;
+  double appearance_margin = 0.05;
+  double appearance_min_gain = 0.1;
+  AppearanceOptions appearance;  ///< visibility and measure of the agreement
   /// Confidence = 1 / (1 + exp(confidence_slope * (S_A − confidence_midpoint))): the
   /// probability that the pose is within ADD(-S) 0.1 d, a logistic fit of correctness on
   /// S_A over the 433 LM-O BOP19 targets the solver answered (K = 18; fit by
@@ -98,7 +121,10 @@ struct StageReport {
   double best_e_obs = 1.0;         ///< best E_obs among PnP poses
   double best_s_after_icp = 2.0;   ///< best S after ICP
   double prepare_ms = 0.0, features_ms = 0.0, match_ms = 0.0, pnp_ms = 0.0,
-         observable_ms = 0.0, icp_ms = 0.0, mhpo_ms = 0.0, post_refine_ms = 0.0, total_ms = 0.0;
+         observable_ms = 0.0, icp_ms = 0.0, mhpo_ms = 0.0, post_refine_ms = 0.0, finalists_ms = 0.0, total_ms = 0.0;
+  int distinct_finalists = 0;         ///< finalists left after merging poses equal modulo symmetry
+  int appearance_compared = 0;        ///< finalists whose appearance was scored
+  bool appearance_changed = false;    ///< appearance replaced the lowest-S pose as T_A
   bool post_refine_ran = false;       ///< stage 6 was triggered
   bool post_refine_accepted = false;  ///< and replaced T_A
   /// Best pose after each stage, for per-stage recall (seed, pnp, observable, icp, mhpo);
@@ -120,6 +146,16 @@ struct PoseResult {
   Termination termination = Termination::kNotRun;
   Eigen::Isometry3d cam_from_object = Eigen::Isometry3d::Identity();  ///< T_A
   double score = 2.0;        ///< S_A (eq. 12), lower is better
+  bool truncated = false;    ///< the instance mask touches the image border (object cut off)
+  /// A pose that is not a symmetry of the mesh scores (nearly) as well as T_A and
+  /// appearance does not tell them apart: the runner-up below is a plausible answer too.
+  bool ambiguous = false;
+  bool has_runner_up = false;  ///< a distinct finalist exists (runner-up fields valid)
+  Eigen::Isometry3d runner_up_cam_from_object = Eigen::Isometry3d::Identity();
+  double runner_up_score = 2.0;  ///< S of the runner-up
+  /// Appearance agreement (ZNCC in [-1, 1]) of T_A; valid only when appearance_valid.
+  double appearance_agreement = 0.0;
+  bool appearance_valid = false;
   double confidence = 0.0;   ///< in [0, 1], monotone decreasing in S_A
   PoseScore details;         ///< C, J, depth residual of T_A
   StageReport stages;
@@ -127,6 +163,13 @@ struct PoseResult {
 
 /// Confidence in [0, 1] for a score S_A (monotone decreasing).
 double ConfidenceFromScore(const SolverOptions& options, double score);
+
+/// S (and its parts) of a given pose for one instance, with the observation prepared
+/// exactly as EstimatePose prepares it (refinement grid, z_M, occlusion reasoning): for
+/// diagnostics such as scoring the ground-truth pose beside the answer. Throws g6d::Error
+/// for input EstimatePose would refuse.
+PoseScore ScoreInstancePose(const Frame& frame, const Instance& instance, const TemplateBank& bank,
+                            const SolverOptions& options, const Eigen::Isometry3d& cam_from_object);
 
 /// Estimates cam_from_object for one instance. Never throws for bad data: bad input
 /// gives success = false with termination kBadInput and a message naming the problem.

@@ -93,6 +93,16 @@ class MsacProblem {
     return cost;
   }
 
+  // Inliers of `pose` among the correspondences `indices`.
+  int CountInliers(const Eigen::Isometry3d& pose, const std::vector<int>& indices) const {
+    int count = 0;
+    for (int i : indices) {
+      const Eigen::Vector3d p = pose * set_.object_points[static_cast<size_t>(i)];
+      count += p.z() > 0.0 && (camera_.Project(p) - set_.image_points[static_cast<size_t>(i)]).squaredNorm() < tau2_;
+    }
+    return count;
+  }
+
   std::vector<int> Inliers(const Eigen::Isometry3d& pose) const {
     std::vector<int> inliers;
     for (size_t i = 0; i < set_.object_points.size(); ++i) {
@@ -305,54 +315,65 @@ void EstimatePnp(const PnpOptions& options, const CorrespondenceSet& set, const 
       all[i] = static_cast<int>(i);
       if (problem.HasObserved(static_cast<int>(i))) with_depth.push_back(static_cast<int>(i));
     }
-    const bool rigid = options.minimal_solver == PnpMinimalSolver::kDepthRigid && with_depth.size() >= 3;
-    const std::vector<int>& pool = rigid ? with_depth : all;
-    std::mt19937_64 rng(options.seed * 0x9E3779B97F4A7C15ULL + static_cast<uint64_t>(set.template_index));
-    int needed = options.max_iterations;
-    std::vector<Eigen::Isometry3d> models;
+    // The depth-rigid solver samples only correspondences whose keypoint has depth; with
+    // fewer than min_inliers of them it cannot confirm a model, so P3P over all of them
+    // runs instead (and also after a rigid run that found nothing plausible).
+    const bool try_rigid = options.minimal_solver == PnpMinimalSolver::kDepthRigid &&
+                           with_depth.size() >= static_cast<size_t>(std::max(3, options.min_inliers));
     int iteration = 0;
-    for (; iteration < needed; ++iteration) {
-      int sample[3];
-      if (!problem.DrawSample(pool, &rng, sample)) break;
-      models.clear();
-      if (rigid) {
-        Eigen::Isometry3d model;
-        if (problem.SolveRigid(sample, &model)) models.push_back(model);
-      } else {
-        problem.SolveP3p(sample, &models);
-      }
-      for (const Eigen::Isometry3d& model : models) {
-        if (!problem.Plausible(model)) continue;
-        int inliers = 0;
-        const double cost = problem.Score(model, &inliers);
-        if (cost >= best_cost) continue;
-        best = model;
-        best_cost = cost;
-        best_inliers = inliers;
-        if (options.local_optimization && inliers >= options.min_inliers) {
-          // Local optimization: re-fit on the inliers while the cost improves.
-          for (int round = 0; round < 3; ++round) {
-            Eigen::Isometry3d refit = best;
-            const std::vector<int> inlier_indices = problem.Inliers(best);
-            const bool fitted = rigid ? problem.FitRigid(inlier_indices, &refit) : problem.RefineLm(inlier_indices, &refit);
-            if (!fitted || !problem.Plausible(refit)) break;
-            int refit_inliers = 0;
-            const double refit_cost = problem.Score(refit, &refit_inliers);
-            if (refit_cost >= best_cost) break;
-            best = refit;
-            best_cost = refit_cost;
-            best_inliers = refit_inliers;
-          }
+    for (const bool rigid : {true, false}) {
+      if (rigid && !try_rigid) continue;
+      if (!rigid && try_rigid && best_inliers >= options.min_inliers) break;
+      const std::vector<int>& pool = rigid ? with_depth : all;
+      std::mt19937_64 rng(options.seed * 0x9E3779B97F4A7C15ULL + static_cast<uint64_t>(set.template_index));
+      int needed = options.max_iterations;
+      std::vector<Eigen::Isometry3d> models;
+      for (int round_iteration = 0; round_iteration < needed; ++round_iteration, ++iteration) {
+        int sample[3];
+        if (!problem.DrawSample(pool, &rng, sample)) break;
+        models.clear();
+        if (rigid) {
+          Eigen::Isometry3d model;
+          if (problem.SolveRigid(sample, &model)) models.push_back(model);
+        } else {
+          problem.SolveP3p(sample, &models);
         }
-        // Adaptive stopping: samples needed to draw one all-inlier triple with
-        // probability `confidence` at the current inlier ratio.
-        const double ratio = std::min(1.0, static_cast<double>(best_inliers) / static_cast<double>(pool.size()));
-        const double p_good = ratio * ratio * ratio;
-        if (p_good >= 1.0) {
-          needed = 0;
-        } else if (p_good > 0.0) {
-          const double k = std::log(1.0 - options.confidence) / std::log(1.0 - p_good);
-          needed = std::min(options.max_iterations, static_cast<int>(std::ceil(k)));
+        for (const Eigen::Isometry3d& model : models) {
+          if (!problem.Plausible(model)) continue;
+          int inliers = 0;
+          const double cost = problem.Score(model, &inliers);
+          if (cost >= best_cost) continue;
+          best = model;
+          best_cost = cost;
+          best_inliers = inliers;
+          if (options.local_optimization && inliers >= options.min_inliers) {
+            // Local optimization: re-fit on the inliers while the cost improves.
+            for (int round = 0; round < 3; ++round) {
+              Eigen::Isometry3d refit = best;
+              const std::vector<int> inlier_indices = problem.Inliers(best);
+              const bool fitted = rigid ? problem.FitRigid(inlier_indices, &refit) : problem.RefineLm(inlier_indices, &refit);
+              if (!fitted || !problem.Plausible(refit)) break;
+              int refit_inliers = 0;
+              const double refit_cost = problem.Score(refit, &refit_inliers);
+              if (refit_cost >= best_cost) break;
+              best = refit;
+              best_cost = refit_cost;
+              best_inliers = refit_inliers;
+            }
+          }
+          // Adaptive stopping: samples needed to draw one all-inlier triple with
+          // probability `confidence` at the current inlier ratio of the pool sampled
+          // from (inliers among all correspondences over the with-depth pool would
+          // overstate it when keypoint depth is missing, and stop too early).
+          const int pool_inliers = problem.CountInliers(best, pool);
+          const double ratio = std::min(1.0, static_cast<double>(pool_inliers) / static_cast<double>(pool.size()));
+          const double p_good = ratio * ratio * ratio;
+          if (p_good >= 1.0) {
+            needed = 0;
+          } else if (p_good > 0.0) {
+            const double k = std::log(1.0 - options.confidence) / std::log(1.0 - p_good);
+            needed = std::min(options.max_iterations, static_cast<int>(std::ceil(k)));
+          }
         }
       }
     }

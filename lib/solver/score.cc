@@ -11,6 +11,7 @@ std::string ScoreOptions::Check() const {
   std::ostringstream out;
   if (!(omega_c >= 0.0 && omega_c <= 1.0)) out << "ScoreOptions.omega_c must be in [0, 1] (got " << omega_c << ")";
   else if (!(lambda_s >= 0.0 && std::isfinite(lambda_s))) out << "ScoreOptions.lambda_s must be finite and >= 0 (got " << lambda_s << ")";
+  else if (!std::isfinite(occlusion_margin_m)) out << "ScoreOptions.occlusion_margin_m must be finite (got " << occlusion_margin_m << ")";
   return out.str();
 }
 
@@ -26,7 +27,11 @@ PoseScore ScoreRendering(const EvaluationGrid& grid, const RasterImage& rendered
     const float* r = rendered.depth.ptr<float>(v);
     for (int u = 0; u < grid.mask.cols; ++u) {
       const bool in_observed = m[u] != 0;
-      const bool in_rendered = r[u] > 0.0f;
+      bool in_rendered = r[u] > 0.0f;
+      if (in_rendered && !in_observed && IsOccluded(r[u], d[u], options)) {
+        ++score.occluded_pixels;  // hidden by an unmasked occluder: neither for nor against
+        in_rendered = false;
+      }
       observed += in_observed;
       score.rendered_pixels += in_rendered;
       intersection += in_observed && in_rendered;

@@ -17,6 +17,12 @@ namespace g6d {
 struct ScoreOptions {
   double omega_c = 0.70;   ///< ω_C: weight of (1 − coverage) in E_obs (eq. 7)
   double lambda_s = 10.0;  ///< λ_S: weight of the normalized depth residual in S (eq. 12)
+  /// Occlusion reasoning (not in the paper, which assumes the mask covers every occluder):
+  /// a rendered pixel outside the observed mask whose observed depth is closer than the
+  /// rendered depth by more than this margin (metres) is hidden by something no mask
+  /// covers, so it does not count against the pose in J or S. Pixels outside the image are
+  /// never on the grid, so truncation by the border never counts either. <= 0 disables it.
+  double occlusion_margin_m = 0.01;
 
   std::string Check() const;
 };
@@ -30,7 +36,15 @@ struct PoseScore {
   double s = 2.0;               ///< 1 − J + λ_S · depth_residual; lower is better
   int rendered_pixels = 0;      ///< |M̂| on the grid
   int overlap_pixels = 0;       ///< Σ w: overlap with valid observed depth
+  int occluded_pixels = 0;      ///< rendered pixels explained by an unmasked occluder (not counted)
 };
+
+/// True when a rendered pixel (depth `rendered_m` > 0) outside the observed mask is hidden
+/// behind an observed surface (`observed_m` > 0) closer by more than options.occlusion_margin_m.
+inline bool IsOccluded(float rendered_m, float observed_m, const ScoreOptions& options) {
+  return options.occlusion_margin_m > 0.0 && observed_m > 0.0f &&
+         observed_m < rendered_m - options.occlusion_margin_m;
+}
 
 /// Scores an already rendered image (on grid.camera) against the grid. `z_m` is z_M.
 /// With no depth overlap the depth residual is 0 when the masks are disjoint as well

@@ -256,6 +256,60 @@ Eigen::Isometry3d ReadPose(Reader* r, const char* what) {
   return pose;
 }
 
+// Geometric symmetries: revolution flag, axis, point, errors, diameter, discrete poses.
+// The per-rotation test log of FindSymmetries is not stored (a build-time report).
+void WriteGeometricSymmetries(const MeshSymmetries& symmetries, Writer* w) {
+  w->U8(symmetries.revolution ? 1 : 0);
+  for (int i = 0; i < 3; ++i) w->F64(symmetries.axis[i]);
+  for (int i = 0; i < 3; ++i) w->F64(symmetries.point[i]);
+  w->F64(symmetries.worst_error);
+  w->F64(symmetries.worst_p95_error);
+  w->F64(symmetries.diameter_m);
+  w->Count(symmetries.discrete.size(), kMaxSymmetries, "geometric symmetry");
+  for (const Eigen::Isometry3d& g : symmetries.discrete) WritePose(g, w);
+}
+
+MeshSymmetries ReadGeometricSymmetries(Reader* r) {
+  MeshSymmetries symmetries;
+  const uint8_t revolution = r->U8("geometric symmetry revolution");
+  if (revolution > 1) r->Fail("geometric symmetry revolution", "code " + std::to_string(revolution) + " is not a bool");
+  symmetries.revolution = revolution == 1;
+  for (int i = 0; i < 3; ++i) symmetries.axis[i] = r->Finite("geometric symmetry axis");
+  for (int i = 0; i < 3; ++i) symmetries.point[i] = r->Finite("geometric symmetry point");
+  if (std::abs(symmetries.axis.norm() - 1.0) > 1e-6) r->Fail("geometric symmetry axis", "is not a unit vector");
+  symmetries.worst_error = r->Finite("geometric symmetry error");
+  symmetries.worst_p95_error = r->Finite("geometric symmetry p95 error");
+  symmetries.diameter_m = r->Finite("geometric symmetry diameter");
+  const uint32_t n = r->Count(kMaxSymmetries, 96, "geometric symmetry");
+  for (uint32_t i = 0; i < n; ++i) symmetries.discrete.push_back(ReadPose(r, "geometric symmetry"));
+  return symmetries;
+}
+
+// Appearance samples: count, then points and normals (f32, byte-shuffled) and 8-bit RGB.
+void WriteAppearance(const AppearanceModel& model, Writer* w) {
+  G6D_CHECK(model.normals.size() == model.points.size() && model.colors.size() == model.points.size());
+  w->Count(model.points.size(), kMaxVertices, "appearance sample");
+  w->ShuffledF32(model.points.empty() ? nullptr : model.points[0].data(), 3 * model.points.size());
+  w->ShuffledF32(model.normals.empty() ? nullptr : model.normals[0].data(), 3 * model.normals.size());
+  for (const Eigen::Vector3f& c : model.colors) {
+    for (int i = 0; i < 3; ++i) w->U8(static_cast<uint8_t>(std::lround(std::clamp(c[i], 0.0f, 1.0f) * 255.0f)));
+  }
+}
+
+AppearanceModel ReadAppearance(Reader* r) {
+  AppearanceModel model;
+  const uint32_t n = r->Count(kMaxVertices, 27, "appearance sample");
+  model.points.resize(n);
+  model.normals.resize(n);
+  model.colors.resize(n);
+  r->ShuffledFiniteF32(n > 0 ? model.points[0].data() : nullptr, 3 * size_t{n}, "appearance sample point");
+  r->ShuffledFiniteF32(n > 0 ? model.normals[0].data() : nullptr, 3 * size_t{n}, "appearance sample normal");
+  for (Eigen::Vector3f& c : model.colors) {
+    for (int i = 0; i < 3; ++i) c[i] = r->U8("appearance sample colour") / 255.0f;
+  }
+  return model;
+}
+
 void WriteOptions(const TemplateBuildOptions& o, Writer* w) {
   w->I32(o.views.num_directions);
   w->I32(o.views.num_inplane);
@@ -277,6 +331,17 @@ void WriteOptions(const TemplateBuildOptions& o, Writer* w) {
   w->I32(o.online_mesh_faces);
   w->F64(o.max_view_angle_deg);
   w->I32(o.thumbnail_size_px);
+  w->U8(o.find_symmetries ? 1 : 0);
+  w->I32(o.symmetry.sample_points);
+  w->F64(o.symmetry.mean_tolerance);
+  w->F64(o.symmetry.max_tolerance);
+  w->I32(o.symmetry.max_order);
+  w->U64(o.symmetry.seed);
+  w->U8(o.sample_appearance ? 1 : 0);
+  w->I32(o.appearance.sample_points);
+  w->U64(o.appearance.seed);
+  w->F64(o.appearance.min_color_std);
+  w->I32(o.appearance.texture_max_side_px);
 }
 
 TemplateBuildOptions ReadOptions(Reader* r, const std::string& name) {
@@ -301,6 +366,21 @@ TemplateBuildOptions ReadOptions(Reader* r, const std::string& name) {
   o.online_mesh_faces = r->I32("online_mesh_faces");
   o.max_view_angle_deg = r->F64("max_view_angle_deg");
   o.thumbnail_size_px = r->I32("thumbnail_size_px");
+  const uint8_t find_symmetries = r->U8("find_symmetries");
+  if (find_symmetries > 1) r->Fail("find_symmetries", "code " + std::to_string(find_symmetries) + " is not a bool");
+  o.find_symmetries = find_symmetries == 1;
+  o.symmetry.sample_points = r->I32("symmetry.sample_points");
+  o.symmetry.mean_tolerance = r->F64("symmetry.mean_tolerance");
+  o.symmetry.max_tolerance = r->F64("symmetry.max_tolerance");
+  o.symmetry.max_order = r->I32("symmetry.max_order");
+  o.symmetry.seed = r->U64("symmetry.seed");
+  const uint8_t sample_appearance = r->U8("sample_appearance");
+  if (sample_appearance > 1) r->Fail("sample_appearance", "code " + std::to_string(sample_appearance) + " is not a bool");
+  o.sample_appearance = sample_appearance == 1;
+  o.appearance.sample_points = r->I32("appearance.sample_points");
+  o.appearance.seed = r->U64("appearance.seed");
+  o.appearance.min_color_std = r->F64("appearance.min_color_std");
+  o.appearance.texture_max_side_px = r->I32("appearance.texture_max_side_px");
   if (const std::string problem = o.Check(); !problem.empty()) {
     G6D_THROW(name << ": corrupted: build option out of range: " << problem);
   }
@@ -529,6 +609,8 @@ std::string EncodeBody(const TemplateBank& bank) {
   for (int i = 0; i < 3; ++i) w.F64(bank.bounding_box.max()[i]);
   w.Count(bank.symmetries.size(), kMaxSymmetries, "symmetry");
   for (const Eigen::Isometry3d& s : bank.symmetries) WritePose(s, &w);
+  WriteGeometricSymmetries(bank.geometric_symmetries, &w);
+  WriteAppearance(bank.appearance, &w);
   WriteMesh(bank.online_mesh, &w);
   w.Count(bank.templates.size(), kMaxTemplates, "template");
   for (const Template& t : bank.templates) WriteTemplate(t, bank.options, &w);
@@ -564,6 +646,8 @@ TemplateBank DecodeBody(const uint8_t* data, size_t size, const std::string& nam
   const uint32_t num_symmetries = r.Count(kMaxSymmetries, 96, "symmetry");
   bank.symmetries.reserve(num_symmetries);
   for (uint32_t i = 0; i < num_symmetries; ++i) bank.symmetries.push_back(ReadPose(&r, "symmetry"));
+  bank.geometric_symmetries = ReadGeometricSymmetries(&r);
+  bank.appearance = ReadAppearance(&r);
   bank.online_mesh = ReadMesh(&r);
   // The smallest possible template: pose, affine, empty mask/thumbnail and no keypoints.
   constexpr size_t kMinTemplateBytes = 96 + 24 + 12 + 8 + 4;
@@ -694,7 +778,8 @@ HeaderInfo CheckHeader(const uint8_t* data, size_t available, uint64_t file_size
   const uint32_t version = LoadU32(data + kVersionOffset);
   if (version != kCacheFormatVersion) {
     G6D_THROW(name << ": unsupported cache format version " << version << " (expected "
-                   << kCacheFormatVersion << "); rebuild it with g6d-build-templates");
+                   << kCacheFormatVersion << "; " << kCacheFormatChange
+                   << "); rebuild it with g6d-build-templates");
   }
   if (Fnv1a64(data, kHeaderChecksumOffset) != LoadU64(data + kHeaderChecksumOffset)) {
     G6D_THROW(name << ": corrupted: checksum mismatch (header)");

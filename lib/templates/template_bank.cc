@@ -19,6 +19,8 @@ std::string TemplateBuildOptions::Check() const {
   if (std::string problem = views.Check(); !problem.empty()) return problem;
   if (std::string problem = crop.Check(); !problem.empty()) return problem;
   if (std::string problem = orb.Check(); !problem.empty()) return problem;
+  if (std::string problem = symmetry.Check(); !problem.empty()) return problem;
+  if (std::string problem = appearance.Check(); !problem.empty()) return problem;
   std::ostringstream out;
   if (render_size_px < 16 || render_size_px > 8192) {
     out << "render_size_px must be in 16..8192 (got " << render_size_px << ")";
@@ -214,6 +216,8 @@ TemplateBank BuildTemplateBank(const Mesh& mesh, const std::string& object_id,
   executor->ParallelFor(num_views + 1, [&](int item) {
     if (item == 0) {
       bank.online_mesh = Decimate(mesh, options.online_mesh_faces);
+      if (options.find_symmetries) bank.geometric_symmetries = FindSymmetries(mesh, options.symmetry);
+      if (options.sample_appearance) bank.appearance = SampleAppearance(mesh, options.appearance);
       return;
     }
     const int j = item - 1;

@@ -17,6 +17,8 @@
 #include "core/camera.h"
 #include "core/executor.h"
 #include "mesh/mesh.h"
+#include "mesh/symmetry.h"
+#include "templates/appearance.h"
 #include "templates/crop.h"
 #include "templates/features.h"
 #include "templates/views.h"
@@ -40,6 +42,16 @@ struct TemplateBuildOptions {
   /// (0 = none). Not used by the solver. 48 px costs ~0.3 MB per 324-template cache
   /// (64 px: ~0.48 MB, which pushed textured objects over the 3 MB budget).
   int thumbnail_size_px = 48;
+
+  /// The mesh's own geometric symmetries are searched at build time with these options
+  /// (stored in the bank; the solver merges hypotheses that differ by one).
+  bool find_symmetries = true;
+  SymmetryOptions symmetry;
+  /// Coloured surface samples for the solver's appearance tie-break are taken at build
+  /// time (the online mesh has no colour); only the sampling fields of `appearance`
+  /// (sample_points, seed, min_color_std, texture_max_side_px) are used and stored.
+  bool sample_appearance = true;
+  AppearanceOptions appearance;
 
   /// Empty when valid, else names the bad field.
   std::string Check() const;
@@ -73,8 +85,16 @@ struct TemplateBank {
   Camera template_camera;  ///< intrinsics and size of every template render
   double diameter_m = 0.0;
   Eigen::AlignedBox3d bounding_box;  ///< metres, object frame
-  /// Symmetry transforms (object_from_object), identity excluded; empty = asymmetric.
+  /// Symmetry transforms given by the user (BOP models_info.json; object_from_object),
+  /// identity excluded; empty = none given.
   std::vector<Eigen::Isometry3d> symmetries;
+  /// The mesh's own geometric symmetries, found at build time (FindSymmetries); empty when
+  /// options.find_symmetries is false or there are none. Shape only: a printed box has
+  /// the box's flips here although its print tells them apart.
+  MeshSymmetries geometric_symmetries;
+  /// Coloured surface samples of the full mesh for the appearance tie-break; empty for an
+  /// untextured, uncoloured or uniformly coloured mesh.
+  AppearanceModel appearance;
   Mesh online_mesh;  ///< decimated geometry for online rasterization
   std::vector<Template> templates;
 
