@@ -540,6 +540,11 @@ std::string EstimatesJsonLines(const std::vector<ReplayedFrame>& frames) {
   for (const ReplayedFrame& frame : frames) {
     if (!frame.answered || frame.answer.status != pose_array_t::STATUS_OK) continue;
     for (const pose_estimate_t& estimate : frame.answer.estimates) {
+      // null, not a number, where the service says there is none.
+      const Json runner_up_score =
+          estimate.has_runner_up ? Json(estimate.runner_up_score) : Json(nullptr);
+      const Json appearance_agreement =
+          estimate.appearance_valid ? Json(estimate.appearance_agreement) : Json(nullptr);
       const Json line = {
           {"scene_id", frame.answer.scene_id},
           {"image_id", frame.answer.image_id},
@@ -554,6 +559,10 @@ std::string EstimatesJsonLines(const std::vector<ReplayedFrame>& frames) {
           {"confidence", estimate.confidence},
           {"iou", estimate.iou},
           {"depth_residual", estimate.depth_residual},
+          {"truncated", estimate.truncated != 0},
+          {"ambiguous", estimate.ambiguous != 0},
+          {"runner_up_score", runner_up_score},
+          {"appearance_agreement", appearance_agreement},
           {"hypotheses", estimate.hypotheses},
           {"solve_time_s", estimate.solve_time_s},
           {"position", {estimate.position[0], estimate.position[1], estimate.position[2]}},

@@ -153,9 +153,11 @@ std::string ReplaySummaryJson(const ReplayOptions& options, const FrameLogStats&
 /// Every estimate of the answered frames as JSON lines (one object per line, in send
 /// order), for per-instance analysis: scene_id, image_id, seq, source, object_id, label,
 /// gt_index, status (EstimateStatusName), message, score (S_A, lower is better),
-/// confidence, iou, depth_residual, hypotheses, solve_time_s, position (m) and orientation
-/// (w, x, y, z) of cam_from_object, and the frame's latency_s and service total_s. Failed
-/// estimates are included; frames rejected as a whole or never answered give no line.
+/// confidence, iou, depth_residual, truncated, ambiguous (booleans), runner_up_score (S of
+/// the runner-up; null without one), appearance_agreement (ZNCC in [-1, 1]; null when not
+/// valid), hypotheses, solve_time_s, position (m) and orientation (w, x, y, z) of
+/// cam_from_object, and the frame's latency_s and service total_s. Failed estimates are
+/// included; frames rejected as a whole or never answered give no line.
 std::string EstimatesJsonLines(const std::vector<ReplayedFrame>& frames);
 
 }  // namespace g6d

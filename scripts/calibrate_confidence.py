@@ -1,17 +1,26 @@
 #!/usr/bin/env python3
-"""Fits the solver's confidence: P(pose within ADD(-S) 0.1 d) = 1 / (1 + exp(slope * (S_A - midpoint))).
+"""Fits the solver's confidence: P(pose within ADD(-S) 0.1 d) as a logistic in S_A and the
+ambiguity flag,
 
-Input: the per-instance records of g6d-bench-dataset (--records FILE.csv). The fit is a
-two-parameter logistic regression of `correct` on S_A by Newton's method (no numpy needed).
-It reports the fit on all records, a 2-fold cross-validation split by image id parity
-(fit on one half, measure on the other), and a reliability table (predicted confidence vs
-observed accuracy per bin) with the expected calibration error (ECE) and the Brier score.
+    confidence = 1 / (1 + exp(-(bias + score_weight * S_A + ambiguous_weight * ambiguous)))
 
-  python3 scripts/calibrate_confidence.py out/exp/lmo_full_records.csv
+on the per-instance records of g6d-bench-dataset (--records FILE.csv) of several datasets,
+and measures it honestly: leave-one-dataset-out (fit on all other datasets, measure on the
+held-out one), so no image of a measured dataset was seen by its fit. Per dataset it prints
+a reliability table (confidence bin vs observed accuracy), the expected calibration error
+(ECE), the Brier score, and the misses with confidence >= 0.9. The old one-feature LM-O fit
+(slope 7.25, midpoint 0.673) is measured beside it.
+
+    python3 scripts/calibrate_confidence.py lmo=out/cal/lmo.csv ycbv_clutter=out/cal/ycbv_clutter.csv \\
+        ycbv_real=out/cal/ycbv_real.csv sample=out/cal/sample.csv
+
+No numpy needed: a small Newton's method with an L2 penalty (1e-3).
 """
 import csv
 import math
 import sys
+
+OLD_SLOPE, OLD_MIDPOINT = 7.25, 0.673
 
 
 def load(path):
@@ -20,84 +29,113 @@ def load(path):
         for r in csv.DictReader(f):
             if r["success"] != "1":
                 continue
-            rows.append((float(r["score"]), int(r["correct"]), int(r["im_id"])))
+            rows.append({"s": float(r["score"]), "amb": int(r.get("ambiguous", "0") or 0), "y": int(r["correct"])})
     if not rows:
         sys.exit(f"{path}: no successful estimates")
     return rows
 
 
+def features(r):
+    return [1.0, r["s"], float(r["amb"])]
+
+
 def sigmoid(x):
-    return 1.0 / (1.0 + math.exp(-x)) if x > -500 else 0.0
+    if x < -500:
+        return 0.0
+    return 1.0 / (1.0 + math.exp(-x))
+
+
+def solve(a, b):
+    """Gaussian elimination for a small dense system a x = b."""
+    n = len(b)
+    m = [row[:] + [b[i]] for i, row in enumerate(a)]
+    for c in range(n):
+        p = max(range(c, n), key=lambda i: abs(m[i][c]))
+        m[c], m[p] = m[p], m[c]
+        for i in range(n):
+            if i != c and m[c][c] != 0:
+                f = m[i][c] / m[c][c]
+                for j in range(c, n + 1):
+                    m[i][j] -= f * m[c][j]
+    return [m[i][n] / m[i][i] for i in range(n)]
 
 
 def fit(rows, l2=1e-3):
-    """Logistic regression p = sigmoid(a + b * S); returns (slope, midpoint) of our form."""
-    a, b = 0.0, 0.0
+    k = len(features(rows[0]))
+    w = [0.0] * k
     for _ in range(100):
-        ga = gb = 0.0
-        haa = hab = hbb = l2
-        for s, y, _ in rows:
-            p = sigmoid(a + b * s)
-            ga += p - y
-            gb += (p - y) * s
-            w = max(p * (1 - p), 1e-9)
-            haa += w
-            hab += w * s
-            hbb += w * s * s
-        gb += l2 * b
-        ga += l2 * a
-        det = haa * hbb - hab * hab
-        da = (hbb * ga - hab * gb) / det
-        db = (haa * gb - hab * ga) / det
-        a, b = a - da, b - db
-        if abs(da) + abs(db) < 1e-10:
+        g = [l2 * wi for wi in w]
+        h = [[l2 if i == j else 0.0 for j in range(k)] for i in range(k)]
+        for r in rows:
+            x = features(r)
+            p = sigmoid(sum(wi * xi for wi, xi in zip(w, x)))
+            q = max(p * (1 - p), 1e-9)
+            for i in range(k):
+                g[i] += (p - r["y"]) * x[i]
+                for j in range(k):
+                    h[i][j] += q * x[i] * x[j]
+        step = solve(h, g)
+        w = [wi - si for wi, si in zip(w, step)]
+        if sum(abs(si) for si in step) < 1e-10:
             break
-    slope = -b
-    midpoint = a / slope if slope != 0 else float("nan")
-    return slope, midpoint
+    return w
 
 
-def confidence(s, slope, midpoint):
-    return sigmoid(-slope * (s - midpoint))
+def predict(w, r):
+    return sigmoid(sum(wi * xi for wi, xi in zip(w, features(r))))
 
 
-def report(rows, slope, midpoint, title):
+def predict_old(r):
+    return sigmoid(-OLD_SLOPE * (r["s"] - OLD_MIDPOINT))
+
+
+def report(rows, confidence, title):
     bins = [[] for _ in range(10)]
     brier = 0.0
-    for s, y, _ in rows:
-        c = confidence(s, slope, midpoint)
-        brier += (c - y) ** 2
-        bins[min(9, int(c * 10))].append((c, y))
+    confident_misses = 0
+    for r in rows:
+        c = confidence(r)
+        brier += (c - r["y"]) ** 2
+        bins[min(9, int(c * 10))].append((c, r["y"]))
+        confident_misses += c >= 0.9 and r["y"] == 0
     ece = 0.0
-    print(f"\n{title}: n = {len(rows)}, accuracy {sum(y for _, y, _ in rows) / len(rows):.3f}")
-    print("| confidence bin | n | mean confidence | observed accuracy |\n|---|---|---|---|")
+    accuracy = sum(r["y"] for r in rows) / len(rows)
+    lines = []
     for i, b in enumerate(bins):
         if not b:
             continue
         mc = sum(c for c, _ in b) / len(b)
         acc = sum(y for _, y in b) / len(b)
         ece += len(b) / len(rows) * abs(mc - acc)
-        print(f"| {i / 10:.1f}-{(i + 1) / 10:.1f} | {len(b)} | {mc:.3f} | {acc:.3f} |")
-    print(f"ECE {ece:.3f}, Brier {brier / len(rows):.3f}")
+        lines.append(f"| {i / 10:.1f}-{(i + 1) / 10:.1f} | {len(b)} | {mc:.3f} | {acc:.3f} |")
+    print(f"\n**{title}**: n = {len(rows)}, accuracy {accuracy:.3f}, ECE {ece:.3f}, Brier {brier / len(rows):.3f}, "
+          f"misses with confidence >= 0.9: {confident_misses}")
+    print("| confidence bin | n | mean confidence | observed accuracy |\n|---|---|---|---|")
+    print("\n".join(lines))
+    return ece
 
 
 def main():
-    if len(sys.argv) < 2:
+    if len(sys.argv) < 2 or any("=" not in a for a in sys.argv[1:]):
         sys.exit(__doc__)
-    rows = load(sys.argv[1])
-    slope, midpoint = fit(rows)
-    print(f"fit on all {len(rows)} estimates: confidence_slope = {slope:.2f}, confidence_midpoint = {midpoint:.4f}")
-    report(rows, slope, midpoint, "all (in-sample)")
-    even = [r for r in rows if r[2] % 2 == 0]
-    odd = [r for r in rows if r[2] % 2 == 1]
-    if even and odd:
-        se, me = fit(even)
-        so, mo = fit(odd)
-        print(f"\n2-fold by image parity: even -> slope {se:.2f} midpoint {me:.4f}; odd -> slope {so:.2f} midpoint {mo:.4f}")
-        report(odd, se, me, "fit on even images, measured on odd")
-        report(even, so, mo, "fit on odd images, measured on even")
-    for extra in sys.argv[2:]:
-        report(load(extra), slope, midpoint, f"held-out file {extra}")
+    datasets = {}
+    for arg in sys.argv[1:]:
+        name, path = arg.split("=", 1)
+        datasets[name] = load(path)
+    everything = [r for rows in datasets.values() for r in rows]
+    w = fit(everything)
+    print(f"fit on all {len(everything)} estimates of {', '.join(datasets)}:")
+    print(f"  confidence_bias = {w[0]:.3f}, confidence_score_weight = {w[1]:.3f}, "
+          f"confidence_ambiguous_weight = {w[2]:.3f}")
+    for name, rows in datasets.items():
+        if len(datasets) > 1:
+            others = [r for other, o in datasets.items() if other != name for r in o]
+            held = fit(others)
+            report(rows, lambda r, held=held: predict(held, r),
+                   f"{name}, held out (fit on the other datasets: bias {held[0]:.2f}, S {held[1]:.2f}, "
+                   f"ambiguous {held[2]:.2f})")
+        report(rows, predict_old, f"{name}, old LM-O fit (slope {OLD_SLOPE}, midpoint {OLD_MIDPOINT})")
+    report(everything, lambda r: predict(w, r), "all datasets, in-sample fit")
 
 
 if __name__ == "__main__":

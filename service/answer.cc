@@ -24,7 +24,22 @@ pose_estimate_t EstimateFor(const DecodedInstance& instance) {
   estimate.gt_index = instance.gt_index;
   estimate.orientation[0] = 1.0;  // identity (w, x, y, z) until a pose is set
   estimate.score = 2.0;           // the worst S (1 - J with J = 0, plus a residual)
+  // No runner-up, not truncated, not ambiguous, no appearance until a result says so; the
+  // quaternion is the identity rather than all zeros so that no message ever carries a
+  // quaternion a subscriber cannot normalize.
+  estimate.runner_up_orientation[0] = 1.0;
   return estimate;
+}
+
+// Position (metres) and unit quaternion (w, x, y, z) of `cam_from_object`.
+void SetPose(const Eigen::Isometry3d& cam_from_object, double position[3], double orientation[4]) {
+  const Eigen::Vector3d translation = cam_from_object.translation();
+  const Eigen::Quaterniond rotation(cam_from_object.rotation());
+  for (int i = 0; i < 3; ++i) position[i] = translation[i];
+  orientation[0] = rotation.w();
+  orientation[1] = rotation.x();
+  orientation[2] = rotation.y();
+  orientation[3] = rotation.z();
 }
 
 }  // namespace
@@ -53,17 +68,21 @@ pose_estimate_t MakePoseEstimate(const DecodedInstance& instance, const PoseResu
   estimate.solve_time_s = result.stages.total_ms * 1e-3;
   if (!result.success) return estimate;
 
-  const Eigen::Vector3d position = result.cam_from_object.translation();
-  const Eigen::Quaterniond rotation(result.cam_from_object.rotation());
-  for (int i = 0; i < 3; ++i) estimate.position[i] = position[i];
-  estimate.orientation[0] = rotation.w();
-  estimate.orientation[1] = rotation.x();
-  estimate.orientation[2] = rotation.y();
-  estimate.orientation[3] = rotation.z();
+  SetPose(result.cam_from_object, estimate.position, estimate.orientation);
   estimate.score = result.score;
   estimate.confidence = result.confidence;
   estimate.iou = result.details.iou;
   estimate.depth_residual = result.details.depth_residual;
+  estimate.truncated = result.truncated;
+  estimate.ambiguous = result.ambiguous;
+  estimate.has_runner_up = result.has_runner_up;
+  if (result.has_runner_up) {
+    SetPose(result.runner_up_cam_from_object, estimate.runner_up_position,
+            estimate.runner_up_orientation);
+    estimate.runner_up_score = result.runner_up_score;
+  }
+  estimate.appearance_valid = result.appearance_valid;
+  if (result.appearance_valid) estimate.appearance_agreement = result.appearance_agreement;
   return estimate;
 }
 

@@ -37,10 +37,14 @@ using Timings = std::vector<std::pair<std::string, double>>;
 /// termination kBadInput -> STATUS_BAD_INPUT, kNoHypothesis (or any other failure) ->
 /// STATUS_NO_SOLUTION, kNotRun -> STATUS_INTERNAL_ERROR; the solver's message otherwise.
 /// Position in metres and quaternion (w, x, y, z) of cam_from_object; score S_A,
-/// confidence, IoU, depth residual, hypotheses kept (N_H used) and solver time.
+/// confidence, IoU, depth residual, hypotheses kept (N_H used) and solver time; the
+/// truncated and ambiguous flags, the runner-up (pose and S, when has_runner_up) and the
+/// appearance agreement (when appearance_valid). A failure carries only the status,
+/// message, hypotheses and solver time: flags false, numbers 0, identity quaternions.
 pose_estimate_t MakePoseEstimate(const DecodedInstance& instance, const PoseResult& result);
 
-/// An estimate that carries only a failure: identity pose, score 2, confidence 0.
+/// An estimate that carries only a failure: identity pose, score 2, confidence 0, no
+/// runner-up (identity quaternion, S 0), flags false, appearance agreement 0.
 pose_estimate_t MakeFailedEstimate(const DecodedInstance& instance, int8_t status,
                                    const std::string& message);
 

@@ -280,6 +280,7 @@ void Service::ProcessJob(const Job& job) {
     sum.observable_ms += s.observable_ms;
     sum.icp_ms += s.icp_ms;
     sum.mhpo_ms += s.mhpo_ms;
+    sum.finalists_ms += s.finalists_ms;
   }
   const Timings timings = {{"queue_wait", SecondsBetween(job.queued, picked)},
                            {"decode", job.decode_s},
@@ -290,6 +291,7 @@ void Service::ProcessJob(const Job& job) {
                            {"observable", sum.observable_ms * 1e-3},
                            {"icp", sum.icp_ms * 1e-3},
                            {"mhpo", sum.mhpo_ms * 1e-3},
+                           {"finalists", sum.finalists_ms * 1e-3},
                            {"solve", SecondsBetween(picked, solved)},
                            {"publish", 0.0}};
   pose_array_t answer = MakePoseArray(job.header, pose_array_t::STATUS_OK, "ok",

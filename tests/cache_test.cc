@@ -331,6 +331,31 @@ TEST(TemplateCache, WrongVersionIsRefused) {
   ExpectRefused(file, "unsupported cache format version 258");
 }
 
+// The committed fuzz seeds (tests/fuzz/corpus/template_cache/, written by
+// g6d-fuzz-make-seeds) must be of the current format, or fuzzing starts at the version
+// check; after a format change, regenerate them.
+TEST(TemplateCache, CommittedFuzzSeedsAreOfTheCurrentFormat) {
+  const std::string dir = test::SourceDir() + "/tests/fuzz/corpus/template_cache/";
+  for (const char* name : {"valid_cache_2_templates", "valid_cache_no_templates"}) {
+    SCOPED_TRACE(name);
+    const std::string file = ReadBytes(dir + name);
+    ASSERT_GE(file.size(), 64u);
+    uint32_t version = 0;
+    std::memcpy(&version, file.data() + 8, 4);
+    EXPECT_EQ(version, kCacheFormatVersion);
+    EXPECT_NO_THROW(ParseTemplateCache(file, name));
+  }
+  // One seed carries what format 2 added, so the fuzzer starts next to those fields.
+  const TemplateBank two = ParseTemplateCache(ReadBytes(dir + "valid_cache_2_templates"), "two");
+  EXPECT_FALSE(two.geometric_symmetries.discrete.empty());
+  EXPECT_FALSE(two.appearance.Empty());
+  for (const char* name :
+       {"valid_body_no_templates", "valid_body_1_template", "valid_body_2_templates"}) {
+    SCOPED_TRACE(name);
+    EXPECT_NO_THROW(ParseTemplateCacheBody(ReadBytes(dir + name), name));
+  }
+}
+
 TEST(TemplateCache, BadMagicIsRefused) {
   std::string file = EncodedBank(MakeBank(1, 7), "cache_magic");
   file[0] = 'X';
@@ -487,7 +512,10 @@ std::string WithTemplates(std::string body, uint32_t count, const std::string& o
 // Fuzz hardening (input tests/fuzz/regressions/template_cache/mask-amplification, crafted
 // while checking huge declared sizes; it drove the fuzz target over its 2 GB limit): masks
 // are run-length coded, so 148 bytes declared a 8192 x 8192 mask and a 4.6 KB body made
-// the reader allocate 1.8 GB. Masks must now be crop.size_px squares.
+// the reader allocate 1.8 GB. Masks must now be crop.size_px squares. (The input is the
+// seed corpus' valid_body_no_templates with 28 OneRunTemplate(8192) appended; it was
+// rebuilt that way for cache format 2, whose longer body the version-1 input no longer
+// parsed far enough to reach the masks.)
 TEST(ParseTemplateCacheBody, FuzzRunLengthMaskOfAnySizeIsRefused) {
   const TemplateBank bank = MakeBank(0, 14);  // crop.size_px 128
   const std::string body = BodyOf(EncodedBank(bank, "cache_mask_size"));
@@ -497,6 +525,15 @@ TEST(ParseTemplateCacheBody, FuzzRunLengthMaskOfAnySizeIsRefused) {
     ADD_FAILURE() << "a 8192 x 8192 mask was accepted with crop.size_px 128";
   } catch (const Error& e) {
     EXPECT_THAT(e.what(), HasSubstr("template mask has a bad size 8192x8192 (expected 128x128"));
+  }
+  // The committed input still gets as far as the masks (a format change must keep it so).
+  const std::string input =
+      ReadBytes(test::SourceDir() + "/tests/fuzz/regressions/template_cache/mask-amplification");
+  try {
+    ParseTemplateCacheBody(input, "regression");
+    ADD_FAILURE() << "the regression input was accepted";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("template mask has a bad size 8192x8192"));
   }
 }
 

@@ -1,5 +1,7 @@
 // Round trips of the g6d LCM message types through encode/decode and through a real
 // in-process LCM bus (memq).
+#include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -72,6 +74,71 @@ TEST(RgbdFrame, DecodeRefusesOtherTypeAndTruncation) {
       << "the LCM fingerprint must reject a frame decoded as a pose array";
   g6d::rgbd_frame_t truncated;
   EXPECT_LT(truncated.decode(bytes.data(), 0, static_cast<int>(bytes.size()) - 5), 0);
+}
+
+g6d::pose_array_t MakeAnswer() {
+  g6d::pose_array_t answer{};
+  answer.seq = 42;
+  answer.message = "ok";
+  g6d::pose_estimate_t estimate{};
+  estimate.object_id = "obj_000005";
+  estimate.message = "ok";
+  estimate.orientation[0] = 1.0;
+  estimate.truncated = 1;
+  estimate.ambiguous = 1;
+  estimate.has_runner_up = 1;
+  const double runner_up_position[3] = {0.01, -0.02, 0.7};
+  const double runner_up_orientation[4] = {0.5, 0.5, -0.5, 0.5};
+  std::copy(runner_up_position, runner_up_position + 3, estimate.runner_up_position);
+  std::copy(runner_up_orientation, runner_up_orientation + 4, estimate.runner_up_orientation);
+  estimate.runner_up_score = 0.125;
+  estimate.appearance_valid = 1;
+  estimate.appearance_agreement = 0.75;
+  answer.estimates.push_back(estimate);
+  answer.num_estimates = 1;
+  return answer;
+}
+
+std::vector<uint8_t> Encode(const g6d::pose_array_t& answer) {
+  std::vector<uint8_t> bytes(static_cast<size_t>(answer.getEncodedSize()));
+  EXPECT_EQ(answer.encode(bytes.data(), 0, static_cast<int>(bytes.size())),
+            static_cast<int>(bytes.size()));
+  return bytes;
+}
+
+TEST(PoseArray, EstimateFieldsOfCacheFormatTwoRoundTrip) {
+  const std::vector<uint8_t> bytes = Encode(MakeAnswer());
+  g6d::pose_array_t decoded;
+  ASSERT_EQ(decoded.decode(bytes.data(), 0, static_cast<int>(bytes.size())),
+            static_cast<int>(bytes.size()));
+  ASSERT_EQ(decoded.num_estimates, 1);
+  const g6d::pose_estimate_t& estimate = decoded.estimates[0];
+  EXPECT_EQ(estimate.truncated, 1);
+  EXPECT_EQ(estimate.ambiguous, 1);
+  EXPECT_EQ(estimate.has_runner_up, 1);
+  EXPECT_EQ(estimate.runner_up_position[2], 0.7);
+  EXPECT_EQ(estimate.runner_up_orientation[2], -0.5);
+  EXPECT_EQ(estimate.runner_up_score, 0.125);
+  EXPECT_EQ(estimate.appearance_valid, 1);
+  EXPECT_EQ(estimate.appearance_agreement, 0.75);
+}
+
+// The fingerprint of g6d.pose_array_t as generated from the .lcm files before the estimate
+// fields of cache format 2 were added (lcmtypes/ at commit 8d349b5; the fingerprint
+// depends only on the type definitions, not on the lcm-gen version).
+constexpr int64_t kPoseArrayHashBeforeFormatTwo = 0x454ad5de046b95beLL;
+
+TEST(PoseArray, MessagesOfThePreviousDefinitionAreRefused) {
+  // A subscriber built from the previous .lcm checks for the old fingerprint and refuses
+  // today's answers; a subscriber built from today's refuses answers of an old service.
+  EXPECT_NE(g6d::pose_array_t::getHash(), kPoseArrayHashBeforeFormatTwo);
+  std::vector<uint8_t> bytes = Encode(MakeAnswer());
+  for (int i = 0; i < 8; ++i) {
+    bytes[static_cast<size_t>(i)] =
+        static_cast<uint8_t>(static_cast<uint64_t>(kPoseArrayHashBeforeFormatTwo) >> (56 - 8 * i));
+  }
+  g6d::pose_array_t decoded;
+  EXPECT_LT(decoded.decode(bytes.data(), 0, static_cast<int>(bytes.size())), 0);
 }
 
 class Receiver {

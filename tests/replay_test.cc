@@ -470,7 +470,8 @@ class AnswerListener {
 };
 
 // bop2lcm -> log -> g6d-replay (wait) -> the real g6d-service -> CSV: ids preserved exactly,
-// CSV poses equal the poses the service published.
+// CSV poses equal the poses the service published, and so do the per-estimate JSON lines'
+// flags, runner-up S and appearance agreement.
 TEST(ReplayEndToEnd, SyntheticBopThroughTheRealService) {
   if (!std::filesystem::exists(kService)) {
     GTEST_SKIP() << kService << " is not built (the service target does not exist yet); skipping";
@@ -512,11 +513,13 @@ TEST(ReplayEndToEnd, SyntheticBopThroughTheRealService) {
       << "g6d-service did not report 2 loaded objects within 60 s; its log:\n"
       << service_log();
 
-  const std::string csv = dir + "/results.csv", summary_path = dir + "/summary.json";
-  const test::CommandResult replay = test::RunCommand(
-      kReplay + " --log " + log_path +
-      " --channel E2E_RGBD --results-channel E2E_POSES --lcm-url '" + url +
-      "' --mode wait --timeout-ms 60000 --results-csv " + csv + " --summary-json " + summary_path);
+  const std::string csv = dir + "/results.csv", summary_path = dir + "/summary.json",
+                    jsonl = dir + "/estimates.jsonl";
+  const test::CommandResult replay =
+      test::RunCommand(kReplay + " --log " + log_path +
+                       " --channel E2E_RGBD --results-channel E2E_POSES --lcm-url '" + url +
+                       "' --mode wait --timeout-ms 60000 --results-csv " + csv +
+                       " --summary-json " + summary_path + " --estimates-jsonl " + jsonl);
   ASSERT_EQ(replay.exit_code, 0) << replay.output << "\nservice log:\n" << service_log();
   EXPECT_EQ(service.Stop(), 0) << "g6d-service should exit 0 on SIGTERM; its log:\n"
                                << service_log();
@@ -569,6 +572,42 @@ TEST(ReplayEndToEnd, SyntheticBopThroughTheRealService) {
     }
   }
   EXPECT_GE(expected.size(), 1u) << "the service solved nothing; its log:\n" << service_log();
+
+  // The per-estimate lines carry the flags, the runner-up's S and the appearance agreement
+  // exactly as the service published them (null where it says there is none).
+  std::map<std::pair<int, int>, nlohmann::json> lines;  // (image_id, gt_index) -> line
+  {
+    std::ifstream in(jsonl);
+    std::string line;
+    while (std::getline(in, line)) {
+      const nlohmann::json j = nlohmann::json::parse(line);
+      lines[{j["image_id"].get<int>(), j["gt_index"].get<int>()}] = j;
+    }
+  }
+  size_t published = 0;
+  for (const pose_array_t& answer : answers) {
+    for (const pose_estimate_t& estimate : answer.estimates) {
+      ++published;
+      SCOPED_TRACE("image " + std::to_string(answer.image_id) + " gt " +
+                   std::to_string(estimate.gt_index));
+      const auto found = lines.find({answer.image_id, estimate.gt_index});
+      ASSERT_NE(found, lines.end());
+      const nlohmann::json& j = found->second;
+      EXPECT_EQ(j["truncated"].get<bool>(), estimate.truncated != 0);
+      EXPECT_EQ(j["ambiguous"].get<bool>(), estimate.ambiguous != 0);
+      if (estimate.has_runner_up) {
+        EXPECT_EQ(j["runner_up_score"].get<double>(), estimate.runner_up_score);
+      } else {
+        EXPECT_TRUE(j["runner_up_score"].is_null()) << j.dump();
+      }
+      if (estimate.appearance_valid) {
+        EXPECT_EQ(j["appearance_agreement"].get<double>(), estimate.appearance_agreement);
+      } else {
+        EXPECT_TRUE(j["appearance_agreement"].is_null()) << j.dump();
+      }
+    }
+  }
+  EXPECT_EQ(lines.size(), published);
 
   const std::vector<BopEstimate> rows = ReadBopCsv(csv);
   ASSERT_EQ(rows.size(), expected.size());

@@ -146,7 +146,7 @@ TEST(G6dEval, PerInstancePrintsEveryTargetWithItsErrorAndVerdict) {
 }
 
 pose_estimate_t Estimate(const std::string& object_id, int8_t status, double score) {
-  pose_estimate_t e;
+  pose_estimate_t e{};
   e.object_id = object_id;
   e.label = 1;
   e.gt_index = 0;
@@ -178,6 +178,16 @@ TEST(EstimatesJsonLines, OneLinePerEstimateOfEveryAnsweredFrame) {
   frames[0].answer.estimates = {Estimate("obj_000001", pose_estimate_t::STATUS_OK, 0.04),
                                 Estimate("obj_000005", pose_estimate_t::STATUS_NO_SOLUTION, 2.0)};
   frames[0].answer.estimates[1].gt_index = 3;
+  // The first is cut by the border, has a runner-up and a colour comparison; the failed
+  // one has neither (its runner-up score and agreement are 0 on the wire: not numbers to
+  // report).
+  pose_estimate_t& cut = frames[0].answer.estimates[0];
+  cut.truncated = 1;
+  cut.ambiguous = 1;
+  cut.has_runner_up = 1;
+  cut.runner_up_score = 0.05;
+  cut.appearance_valid = 1;
+  cut.appearance_agreement = -0.5;
   frames[0].answer.num_estimates = 2;
   frames[1].answered = true;  // rejected as a whole: no estimates to list
   frames[1].answer.status = pose_array_t::STATUS_BAD_FRAME;
@@ -200,6 +210,14 @@ TEST(EstimatesJsonLines, OneLinePerEstimateOfEveryAnsweredFrame) {
   EXPECT_DOUBLE_EQ(parsed[0]["latency_s"].get<double>(), 0.5);
   EXPECT_EQ(parsed[0]["position"], Json::array({0.1, 0.2, 0.7}));
   EXPECT_EQ(parsed[0]["orientation"], Json::array({1.0, 0.0, 0.0, 0.0}));
+  EXPECT_EQ(parsed[0]["truncated"], true);
+  EXPECT_EQ(parsed[0]["ambiguous"], true);
+  EXPECT_DOUBLE_EQ(parsed[0]["runner_up_score"].get<double>(), 0.05);
+  EXPECT_DOUBLE_EQ(parsed[0]["appearance_agreement"].get<double>(), -0.5);
+  EXPECT_EQ(parsed[1]["truncated"], false);
+  EXPECT_EQ(parsed[1]["ambiguous"], false);
+  EXPECT_TRUE(parsed[1]["runner_up_score"].is_null());
+  EXPECT_TRUE(parsed[1]["appearance_agreement"].is_null());
   EXPECT_EQ(parsed[1]["status"], "no_solution");
   EXPECT_EQ(parsed[1]["message"], "no pose");
   EXPECT_EQ(parsed[1]["gt_index"], 3);

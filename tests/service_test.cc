@@ -1,5 +1,6 @@
 // g6d::Service in-process over a real LCM bus (memq): poses end to end, every kind of bad
-// input interleaved with good frames, mailbox drops, stale frames, shutdown.
+// input interleaved with good frames, mailbox drops, stale frames, shutdown; an object cut
+// by the image border, the runner-up and appearance fields, and MakePoseEstimate.
 #include "service/service.h"
 
 #include <gtest/gtest.h>
@@ -12,7 +13,9 @@
 #include <vector>
 
 #include "bad_frames.h"
+#include "core/se3.h"
 #include "eval/metrics.h"
+#include "service/answer.h"
 #include "service_test_util.h"
 
 namespace g6d {
@@ -22,6 +25,47 @@ using std::chrono::milliseconds;
 using std::chrono::seconds;
 
 constexpr int kNumViews = 4;
+
+double QuaternionNorm(const double q[4]) {
+  return std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+}
+
+bool AllFinite(const double* values, int n) {
+  return std::all_of(values, values + n, [](double x) { return std::isfinite(x); });
+}
+
+// The fields added with cache format 2 agree with each other and with the status: a
+// runner-up is a finite pose with a unit quaternion and a finite S >= 0; without one its
+// fields are 0 and the identity, and the answer is not ambiguous; the appearance agreement
+// is a ZNCC in [-1, 1] when valid and 0 otherwise; a failure has no flag set at all.
+void ExpectConsistentExtraFields(const pose_estimate_t& estimate) {
+  SCOPED_TRACE("estimate of " + estimate.object_id + ": " + estimate.message);
+  if (estimate.status != pose_estimate_t::STATUS_OK) {
+    EXPECT_FALSE(estimate.truncated);
+    EXPECT_FALSE(estimate.ambiguous);
+    EXPECT_FALSE(estimate.has_runner_up);
+    EXPECT_FALSE(estimate.appearance_valid);
+  }
+  if (estimate.has_runner_up) {
+    EXPECT_TRUE(AllFinite(estimate.runner_up_position, 3));
+    EXPECT_TRUE(AllFinite(estimate.runner_up_orientation, 4));
+    EXPECT_NEAR(QuaternionNorm(estimate.runner_up_orientation), 1.0, 1e-9);
+    EXPECT_TRUE(std::isfinite(estimate.runner_up_score));
+    EXPECT_GE(estimate.runner_up_score, 0.0);
+  } else {
+    EXPECT_FALSE(estimate.ambiguous) << "ambiguous without a runner-up";
+    for (int i = 0; i < 3; ++i) EXPECT_EQ(estimate.runner_up_position[i], 0.0);
+    EXPECT_EQ(estimate.runner_up_orientation[0], 1.0);
+    for (int i = 1; i < 4; ++i) EXPECT_EQ(estimate.runner_up_orientation[i], 0.0);
+    EXPECT_EQ(estimate.runner_up_score, 0.0);
+  }
+  if (estimate.appearance_valid) {
+    EXPECT_GE(estimate.appearance_agreement, -1.0);
+    EXPECT_LE(estimate.appearance_agreement, 1.0);
+  } else {
+    EXPECT_EQ(estimate.appearance_agreement, 0.0);
+  }
+}
 
 class ServiceTest : public ::testing::Test {
  protected:
@@ -117,10 +161,16 @@ TEST_F(ServiceTest, AnswersWithPosesWithinAddTenthDiameter) {
     EXPECT_GE(estimate.hypotheses, 1);
     EXPECT_LE(estimate.hypotheses, 2);
     EXPECT_GT(estimate.solve_time_s, 0.0);
+    // The views keep the whole box inside the image; its printed texture is compared with
+    // the image at the answer, and agrees with it at the right pose.
+    EXPECT_FALSE(estimate.truncated);
+    EXPECT_TRUE(estimate.appearance_valid);
+    EXPECT_GT(estimate.appearance_agreement, 0.5);
+    ExpectConsistentExtraFields(estimate);
     // Every named timing is there, and end to end covers decode + solve.
     ASSERT_EQ(answer.timing_names.size(), answer.timing_s.size());
     for (const char* name : {"queue_wait", "decode", "features", "match", "pnp", "observable",
-                             "icp", "mhpo", "solve", "publish"}) {
+                             "icp", "mhpo", "finalists", "solve", "publish"}) {
       EXPECT_NE(std::find(answer.timing_names.begin(), answer.timing_names.end(), name),
                 answer.timing_names.end())
           << name;
@@ -245,6 +295,73 @@ TEST_F(ServiceTest, OneBadInstanceDoesNotSpoilTheOthers) {
   EXPECT_EQ(answer.estimates[1].label, 9);
   EXPECT_EQ(answer.estimates[2].status, +pose_estimate_t::STATUS_UNKNOWN_OBJECT);
   EXPECT_EQ(answer.estimates[2].object_id, "obj_000404");
+  for (const pose_estimate_t& estimate : answer.estimates) ExpectConsistentExtraFields(estimate);
+}
+
+TEST_F(ServiceTest, ObjectCutByTheImageBorderIsSolvedAndFlagged) {
+  StartService(Options("truncated"));
+  // The box 0.6 m away with its centre 25 px from the left edge of the image: about a
+  // third of it is outside. The solver used to refuse such a mask; now it is solved.
+  const Camera& camera = test::kServiceCamera;
+  const Eigen::Isometry3d cam_from_object = MakePose(
+      Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.3, 1.0, 0.2).normalized()).toRotationMatrix(),
+      camera.Backproject({25.0, 240.0}, 0.6));
+  GlRenderer renderer(scene_->mesh);
+  test::SyntheticOptions view_options;
+  view_options.seed = 31;
+  const test::SyntheticView cut =
+      test::RenderSyntheticView(&renderer, scene_->mesh, camera, cam_from_object, view_options);
+  const cv::Rect box = cv::boundingRect(cut.mask);
+  ASSERT_EQ(box.x, 0) << "the view should be cut by the left border";
+  ASSERT_GT(cv::countNonZero(cut.mask), 1000);
+
+  Publish(test::MakeRgbdFrame(cut, 600, test::kBoxId));
+  const pose_array_t answer = NextAnswer();
+  ASSERT_EQ(answer.status, +pose_array_t::STATUS_OK) << answer.message;
+  ASSERT_EQ(answer.num_estimates, 1);
+  const pose_estimate_t& estimate = answer.estimates[0];
+  ASSERT_EQ(estimate.status, +pose_estimate_t::STATUS_OK) << estimate.message;
+  EXPECT_TRUE(estimate.truncated);
+  EXPECT_NEAR(QuaternionNorm(estimate.orientation), 1.0, 1e-9);
+  EXPECT_LT(ComputeAdd(test::PoseOf(estimate), cut.cam_from_object, scene_->mesh.vertices),
+            0.1 * scene_->bank.diameter_m);
+  ExpectConsistentExtraFields(estimate);
+
+  // The same object inside the image is not flagged.
+  Publish(test::MakeRgbdFrame(scene_->views[0], 601, test::kBoxId));
+  const pose_array_t inside = NextAnswer();
+  ASSERT_EQ(inside.num_estimates, 1);
+  ASSERT_EQ(inside.estimates[0].status, +pose_estimate_t::STATUS_OK) << inside.estimates[0].message;
+  EXPECT_FALSE(inside.estimates[0].truncated);
+}
+
+TEST_F(ServiceTest, RunnerUpTravelsWithTheAnswer) {
+  // Every finalist farther than a micrometre-scale fraction of the diameter from the answer
+  // counts as a different answer, so the finalists of K = 3 distinct hypotheses leave a
+  // runner-up on every frame where two of them did not converge to bit-identical poses.
+  ServiceOptions options = Options("runner_up");
+  options.solver.num_hypotheses = 3;
+  options.solver.ambiguity_distance_fraction = 1e-6;
+  StartService(options);
+  int with_runner_up = 0;
+  for (int i = 0; i < kNumViews; ++i) {
+    Publish(test::MakeRgbdFrame(scene_->views[i], 700 + i, test::kBoxId));
+    const pose_array_t answer = NextAnswer();
+    ASSERT_EQ(answer.num_estimates, 1);
+    const pose_estimate_t& estimate = answer.estimates[0];
+    ASSERT_EQ(estimate.status, +pose_estimate_t::STATUS_OK) << estimate.message;
+    ExpectConsistentExtraFields(estimate);
+    if (!estimate.has_runner_up) continue;
+    ++with_runner_up;
+    // A different pose from the answer, not a copy of it.
+    const Eigen::Isometry3d answer_pose = test::PoseOf(estimate);
+    pose_estimate_t runner_up = estimate;
+    std::copy(estimate.runner_up_position, estimate.runner_up_position + 3, runner_up.position);
+    std::copy(estimate.runner_up_orientation, estimate.runner_up_orientation + 4,
+              runner_up.orientation);
+    EXPECT_GT(ComputeAdd(test::PoseOf(runner_up), answer_pose, scene_->mesh.vertices), 0.0);
+  }
+  EXPECT_GT(with_runner_up, 0) << "no frame had a runner-up";
 }
 
 TEST_F(ServiceTest, NewerFrameReplacesTheWaitingOne) {
@@ -308,6 +425,93 @@ TEST_F(ServiceTest, StopWhileSolvingAbandonsOrFinishesAndJoins) {
   EXPECT_EQ(counters.frames_received, 1);
   EXPECT_EQ(counters.frames_processed + counters.frames_dropped, 1);
   service_->Stop();  // idempotent
+}
+
+// ---- Building estimates -------------------------------------------------------------------
+
+// An encode/decode round trip of one estimate, as a subscriber receives it.
+pose_estimate_t ThroughLcmBytes(const pose_estimate_t& estimate) {
+  std::vector<uint8_t> bytes(static_cast<size_t>(estimate.getEncodedSize()));
+  EXPECT_EQ(estimate.encode(bytes.data(), 0, static_cast<int>(bytes.size())),
+            static_cast<int>(bytes.size()));
+  pose_estimate_t decoded;
+  EXPECT_EQ(decoded.decode(bytes.data(), 0, static_cast<int>(bytes.size())),
+            static_cast<int>(bytes.size()));
+  return decoded;
+}
+
+DecodedInstance BoxInstance() {
+  DecodedInstance instance;
+  instance.object_id = test::kBoxId;
+  instance.label = 1;
+  instance.gt_index = 4;
+  return instance;
+}
+
+TEST(MakePoseEstimate, CopiesTruncationRunnerUpAndAppearance) {
+  PoseResult result;
+  result.success = true;
+  result.termination = Termination::kConverged;
+  result.cam_from_object = MakePose(
+      Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY()).toRotationMatrix(), {0.01, -0.02, 0.6});
+  result.score = 0.08;
+  result.truncated = true;
+  result.ambiguous = true;
+  result.has_runner_up = true;
+  const Eigen::Quaterniond runner_up_rotation(
+      Eigen::AngleAxisd(2.0, Eigen::Vector3d(1.0, 2.0, -0.5).normalized()));
+  result.runner_up_cam_from_object =
+      MakePose(runner_up_rotation.toRotationMatrix(), {0.03, 0.04, 0.65});
+  result.runner_up_score = 0.095;
+  result.appearance_valid = true;
+  result.appearance_agreement = -0.25;
+  const pose_estimate_t estimate = ThroughLcmBytes(MakePoseEstimate(BoxInstance(), result));
+  ASSERT_EQ(estimate.status, +pose_estimate_t::STATUS_OK);
+  EXPECT_TRUE(estimate.truncated);
+  EXPECT_TRUE(estimate.ambiguous);
+  ASSERT_TRUE(estimate.has_runner_up);
+  EXPECT_DOUBLE_EQ(estimate.runner_up_position[0], 0.03);
+  EXPECT_DOUBLE_EQ(estimate.runner_up_position[1], 0.04);
+  EXPECT_DOUBLE_EQ(estimate.runner_up_position[2], 0.65);
+  const Eigen::Quaterniond received(
+      estimate.runner_up_orientation[0], estimate.runner_up_orientation[1],
+      estimate.runner_up_orientation[2], estimate.runner_up_orientation[3]);
+  EXPECT_NEAR(received.angularDistance(runner_up_rotation), 0.0, 1e-9);
+  EXPECT_DOUBLE_EQ(estimate.runner_up_score, 0.095);
+  EXPECT_TRUE(estimate.appearance_valid);
+  EXPECT_DOUBLE_EQ(estimate.appearance_agreement, -0.25);
+  ExpectConsistentExtraFields(estimate);
+}
+
+TEST(MakePoseEstimate, WithoutRunnerUpOrAppearanceTheirFieldsAreZero) {
+  PoseResult result;
+  result.success = true;
+  result.termination = Termination::kConverged;
+  result.score = 0.05;
+  result.runner_up_score = 2.0;       // the solver's "none" value stays off the wire
+  result.appearance_agreement = 0.9;  // not valid: not sent
+  const pose_estimate_t estimate = ThroughLcmBytes(MakePoseEstimate(BoxInstance(), result));
+  ASSERT_EQ(estimate.status, +pose_estimate_t::STATUS_OK);
+  EXPECT_FALSE(estimate.truncated);
+  EXPECT_FALSE(estimate.has_runner_up);
+  EXPECT_FALSE(estimate.appearance_valid);
+  ExpectConsistentExtraFields(estimate);
+}
+
+TEST(MakePoseEstimate, FailuresCarryNoFlags) {
+  // A solver failure after the mask was seen to touch the border: the flag describes a
+  // pose, and there is none.
+  PoseResult result;
+  result.termination = Termination::kNoHypothesis;
+  result.message = "no correspondences";
+  result.truncated = true;
+  const pose_estimate_t failed = ThroughLcmBytes(MakePoseEstimate(BoxInstance(), result));
+  EXPECT_EQ(failed.status, +pose_estimate_t::STATUS_NO_SOLUTION);
+  ExpectConsistentExtraFields(failed);
+  const pose_estimate_t refused = ThroughLcmBytes(
+      MakeFailedEstimate(BoxInstance(), pose_estimate_t::STATUS_BAD_INPUT, "empty mask"));
+  EXPECT_EQ(refused.status, +pose_estimate_t::STATUS_BAD_INPUT);
+  ExpectConsistentExtraFields(refused);
 }
 
 TEST(Percentile, NearestRank) {

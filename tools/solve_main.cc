@@ -114,6 +114,17 @@ int main(int argc, char** argv) {
     std::printf("status      %s (%s)\n", result.success ? "ok" : "failed", g6d::TerminationName(result.termination));
     if (!result.success) std::printf("reason      %s\n", result.message.c_str());
     if (result.truncated) std::printf("truncated   the mask touches the image border: the object is cut off\n");
+    if (result.has_runner_up) {
+      const Eigen::Isometry3d difference = result.cam_from_object.inverse() * result.runner_up_cam_from_object;
+      std::printf("runner-up   S %.4f (S_A + %.4f), %.1f deg and %.1f mm from T_A%s\n", result.runner_up_score,
+                  result.runner_up_score - result.score, Eigen::AngleAxisd(difference.linear()).angle() * 180.0 / M_PI,
+                  difference.translation().norm() * 1000.0, result.ambiguous ? ": AMBIGUOUS" : "");
+    }
+    if (result.appearance_valid) {
+      std::printf("appearance  agreement %.3f (ZNCC, model colours vs image)", result.appearance_agreement);
+      if (result.runner_up_appearance_valid) std::printf(", runner-up %.3f", result.runner_up_appearance_agreement);
+      std::printf("\n");
+    }
     std::printf("t (m)       %.4f %.4f %.4f\n", t.x(), t.y(), t.z());
     std::printf("q (wxyz)    %.5f %.5f %.5f %.5f\n", q.w(), q.x(), q.y(), q.z());
     std::printf("S_A         %.4f   confidence %.3f   IoU %.3f   depth residual %.4f\n", result.score,
@@ -143,6 +154,15 @@ int main(int argc, char** argv) {
       j["iou"] = result.details.iou;
       j["depth_residual"] = result.details.depth_residual;
       j["truncated"] = result.truncated;
+      j["ambiguous"] = result.ambiguous;
+      if (result.has_runner_up) {
+        const Eigen::Quaterniond rq(result.runner_up_cam_from_object.linear());
+        const Eigen::Vector3d rt = result.runner_up_cam_from_object.translation();
+        j["runner_up"] = {{"score", result.runner_up_score},
+                          {"position_m", {rt.x(), rt.y(), rt.z()}},
+                          {"orientation_wxyz", {rq.w(), rq.x(), rq.y(), rq.z()}}};
+      }
+      if (result.appearance_valid) j["appearance_agreement"] = result.appearance_agreement;
       j["stages"] = {{"query_features", s.query_features}, {"correspondence_sets", s.correspondence_sets},
                      {"pnp_hypotheses", s.pnp_hypotheses}, {"kept_hypotheses", s.kept_hypotheses},
                      {"icp_converged", s.icp_converged}, {"best_e_obs", s.best_e_obs},

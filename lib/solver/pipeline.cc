@@ -38,7 +38,8 @@ std::string SolverOptions::Check() const {
   else if (!(ambiguity_margin >= 0.0 && ambiguity_margin < 2.0)) out << "SolverOptions.ambiguity_margin must be in [0, 2) (got " << ambiguity_margin << ")";
   else if (!(appearance_margin >= 0.0 && appearance_margin < 2.0)) out << "SolverOptions.appearance_margin must be in [0, 2) (got " << appearance_margin << ")";
   else if (!(appearance_min_gain >= 0.0 && appearance_min_gain <= 2.0)) out << "SolverOptions.appearance_min_gain must be in [0, 2] (got " << appearance_min_gain << ")";
-  else if (!(confidence_slope > 0.0)) out << "SolverOptions.confidence_slope must be > 0 (got " << confidence_slope << ")";
+  else if (!(confidence_score_weight < 0.0)) out << "SolverOptions.confidence_score_weight must be < 0 (got " << confidence_score_weight << ")";
+  else if (!std::isfinite(confidence_bias) || !std::isfinite(confidence_ambiguous_weight)) out << "SolverOptions.confidence_bias and confidence_ambiguous_weight must be finite";
   return out.str();
 }
 
@@ -53,9 +54,11 @@ const char* TerminationName(Termination termination) {
   return "unknown";
 }
 
-double ConfidenceFromScore(const SolverOptions& options, double score) {
+double ConfidenceFromScore(const SolverOptions& options, double score, bool ambiguous) {
   if (!std::isfinite(score)) return 0.0;
-  return 1.0 / (1.0 + std::exp(options.confidence_slope * (score - options.confidence_midpoint)));
+  const double logit = options.confidence_bias + options.confidence_score_weight * score +
+                       (ambiguous ? options.confidence_ambiguous_weight : 0.0);
+  return 1.0 / (1.0 + std::exp(-logit));
 }
 
 namespace {
@@ -246,10 +249,12 @@ void ResolveFinalists(const SolverOptions& options, const TemplateBank& bank, co
                                       distinct[k].cam_from_object);
       ++stages.appearance_compared;
     }
-    for (size_t k = 1; k < distinct.size(); ++k) {
-      if (!appearance[k].valid) continue;
-      const double reference = appearance[chosen].valid ? appearance[chosen].agreement : -1.0;
-      if (appearance[k].agreement > reference + options.appearance_min_gain) chosen = k;
+    // Only a valid comparison can overrule S: a pose whose visible model colours are
+    // uniform (invalid score) is neither better nor worse in appearance.
+    for (size_t k = 1; k < distinct.size() && appearance[0].valid; ++k) {
+      if (appearance[k].valid && appearance[k].agreement > appearance[chosen].agreement + options.appearance_min_gain) {
+        chosen = k;
+      }
     }
   }
   if (chosen != 0) stages.appearance_changed = true;
@@ -271,6 +276,8 @@ void ResolveFinalists(const SolverOptions& options, const TemplateBank& bank, co
     result->has_runner_up = true;
     result->runner_up_cam_from_object = distinct[k].cam_from_object;
     result->runner_up_score = distinct[k].score.s;
+    result->runner_up_appearance_valid = appearance[k].valid;
+    result->runner_up_appearance_agreement = appearance[k].agreement;
     const bool appearance_separates = appearance[chosen].valid && appearance[k].valid &&
                                       appearance[chosen].agreement > appearance[k].agreement + options.appearance_min_gain;
     result->ambiguous = distinct[k].score.s < distinct[chosen].score.s + options.ambiguity_margin && !appearance_separates;
@@ -517,7 +524,7 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
     ResolveFinalists(options, bank, frame, mask, symmetries, distance_points, std::move(finalists), &result);
     stages.finalists_ms = watch.ElapsedMs();
     result.score = result.details.s;
-    result.confidence = ConfidenceFromScore(options, result.score);
+    result.confidence = ConfidenceFromScore(options, result.score, result.ambiguous);
     result.success = true;
     result.message = "ok";
     stages.total_ms = total.ElapsedMs();

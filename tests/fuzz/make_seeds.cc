@@ -347,7 +347,9 @@ void MakeImageSeeds(const fs::path& fuzz_dir) {
 
 // A tiny hand-made bank (no rendering, so the bytes never depend on the GL driver): a
 // 4 cm cube, `num_templates` templates with a 32 x 32 mask, an 8 x 8 thumbnail and four
-// keypoints each.
+// keypoints each. `with_symmetry` also fills what cache format 2 added: the cube's
+// geometric symmetries (a quarter turn about z; the closure is not needed for parsing)
+// and a few coloured appearance samples, one per corner.
 TemplateBank MakeSeedBank(int num_templates, bool with_normals, bool with_symmetry) {
   TemplateBank bank;
   bank.object_id = "obj_000001";
@@ -371,6 +373,16 @@ TemplateBank MakeSeedBank(int num_templates, bool with_normals, bool with_symmet
     Eigen::Isometry3d symmetry = Eigen::Isometry3d::Identity();
     symmetry.linear() = test::AxisAngle(M_PI / 2.0, Eigen::Vector3d::UnitZ());
     bank.symmetries.push_back(symmetry);
+    bank.geometric_symmetries.discrete.push_back(symmetry);
+    bank.geometric_symmetries.worst_error = 0.001;
+    bank.geometric_symmetries.worst_p95_error = 0.002;
+    bank.geometric_symmetries.diameter_m = bank.diameter_m;
+    for (size_t i = 0; i < bank.online_mesh.vertices.size(); ++i) {
+      const Eigen::Vector3f& vertex = bank.online_mesh.vertices[i];
+      bank.appearance.points.push_back(vertex);
+      bank.appearance.normals.push_back(vertex.normalized());
+      bank.appearance.colors.emplace_back(0.125f * static_cast<float>(i), 0.5f, 1.0f);
+    }
   }
   for (int j = 0; j < num_templates; ++j) {
     Template t;

@@ -1,0 +1,107 @@
+// g6d-bench-dataset as a user runs it: a BOP folder written by the test, caches built by
+// the real g6d-build-templates, a targets file of the user's own (--targets), the GT-score
+// diagnostic (--score-gt) and the per-instance records CSV.
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "eval/bop.h"
+#include "process_util.h"
+#include "synthetic_bop.h"
+#include "test_paths.h"
+#include "test_util.h"
+
+namespace g6d {
+namespace {
+
+const std::string kBench = test::BinaryDir() + "/bench/g6d-bench-dataset";
+const std::string kBuildTemplates = test::BinaryDir() + "/tools/g6d-build-templates";
+
+std::vector<std::vector<std::string>> ReadCsv(const std::string& path) {
+  std::vector<std::vector<std::string>> rows;
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line)) {
+    std::vector<std::string> fields;
+    std::stringstream stream(line);
+    std::string field;
+    while (std::getline(stream, field, ',')) fields.push_back(field);
+    if (!line.empty() && line.back() == ',') fields.emplace_back();
+    rows.push_back(fields);
+  }
+  return rows;
+}
+
+class BenchDatasetTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new std::string(test::TempDir("bench_dataset"));
+    const test::SyntheticBop dataset = test::WriteSyntheticBopDataset(*dir_ + "/tiny", {});
+    std::filesystem::create_directories(*dir_ + "/caches");
+    for (int obj_id : dataset.obj_ids) {
+      const std::string name = BopObjectName(obj_id);
+      // 72 templates keep the test fast.
+      const test::CommandResult build =
+          test::RunCommand(kBuildTemplates + " --mesh " + *dir_ + "/tiny/models/" + name + ".ply --units mm --object-id " +
+                           name + " --out " + *dir_ + "/caches/" + name + ".g6dcache --views 72 --threads 2");
+      ASSERT_EQ(build.exit_code, 0) << build.output;
+    }
+  }
+  static void TearDownTestSuite() { delete dir_; }
+  static std::string* dir_;
+};
+std::string* BenchDatasetTest::dir_ = nullptr;
+
+TEST_F(BenchDatasetTest, OwnTargetsFileScoreGtAndRecords) {
+  ASSERT_TRUE(std::filesystem::exists(kBench)) << kBench;
+  // Only object 2 of image 0 (the dataset's own targets also hold object 1 and image 2).
+  const std::string targets = *dir_ + "/targets.json";
+  std::ofstream(targets) << R"([{"scene_id": 1, "im_id": 0, "obj_id": 2, "inst_count": 1}])";
+  const std::string records = *dir_ + "/records.csv";
+  const test::CommandResult run =
+      test::RunCommand(kBench + " --dataset " + *dir_ + "/tiny --caches " + *dir_ + "/caches --targets " + targets +
+                       " --score-gt --records " + records + " --hypotheses 4");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("misses by cause"), std::string::npos) << run.output;
+  const std::vector<std::vector<std::string>> rows = ReadCsv(records);
+  ASSERT_EQ(rows.size(), 2u) << "one header and one instance";
+  const std::vector<std::string>& header = rows[0];
+  auto column = [&](const std::string& name) {
+    for (size_t i = 0; i < header.size(); ++i) {
+      if (header[i] == name) return i;
+    }
+    ADD_FAILURE() << "no column " << name;
+    return size_t{0};
+  };
+  ASSERT_EQ(rows[1].size(), header.size());
+  EXPECT_EQ(rows[1][column("obj_id")], "2");
+  EXPECT_EQ(rows[1][column("im_id")], "0");
+  EXPECT_EQ(rows[1][column("success")], "1");
+  // The GT pose of a rendered scene fits its own mask and depth almost perfectly.
+  const double gt_score = std::stod(rows[1][column("gt_score")]);
+  const double gt_iou = std::stod(rows[1][column("gt_iou")]);
+  EXPECT_GT(gt_iou, 0.9);
+  EXPECT_LT(gt_score, 0.2);
+  EXPECT_EQ(rows[1][column("truncated")], "0");
+}
+
+TEST_F(BenchDatasetTest, BadTargetsFileAndContradictingFlagsAreErrors) {
+  ASSERT_TRUE(std::filesystem::exists(kBench)) << kBench;
+  const test::CommandResult missing =
+      test::RunCommand(kBench + " --dataset " + *dir_ + "/tiny --caches " + *dir_ + "/caches --targets " + *dir_ +
+                       "/absent.json");
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_NE(missing.output.find("absent.json"), std::string::npos) << missing.output;
+  const test::CommandResult both = test::RunCommand(kBench + " --dataset " + *dir_ + "/tiny --caches " + *dir_ +
+                                                    "/caches --allow-border-masks --reject-border-masks");
+  EXPECT_EQ(both.exit_code, 2);
+  EXPECT_NE(both.output.find("contradict"), std::string::npos) << both.output;
+}
+
+}  // namespace
+}  // namespace g6d
