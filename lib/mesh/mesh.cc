@@ -520,8 +520,7 @@ double ComputeSurfaceArea(const Mesh& mesh) {
   return 0.5 * twice_area;
 }
 
-std::vector<Eigen::Vector3f> SampleSurface(const Mesh& mesh, int count, uint64_t seed,
-                                           std::vector<Eigen::Vector3f>* normals) {
+std::vector<SurfaceSample> SampleSurfaceFaces(const Mesh& mesh, int count, uint64_t seed) {
   if (count < 0) G6D_THROW("SampleSurface: count must be >= 0 (got " << count << ")");
   CheckFaceIndices(mesh, "SampleSurface");
   // Cumulative face areas: a face is picked with probability proportional to its area.
@@ -535,29 +534,37 @@ std::vector<Eigen::Vector3f> SampleSurface(const Mesh& mesh, int count, uint64_t
     G6D_THROW("SampleSurface: the mesh has no faces with positive area (" << mesh.faces.size()
                                                                           << " faces)");
   }
-
   std::mt19937_64 engine(seed);
-  std::vector<Eigen::Vector3f> points;
-  points.reserve(static_cast<size_t>(count));
-  if (normals != nullptr) {
-    normals->clear();
-    normals->reserve(static_cast<size_t>(count));
-  }
-  for (int i = 0; i < count; ++i) {
+  std::vector<SurfaceSample> samples(static_cast<size_t>(count));
+  for (SurfaceSample& sample : samples) {
     const double pick = UniformUnit(&engine) * total;
     // upper_bound never lands on a zero-area face: its cumulative value equals the previous.
-    const size_t f =
+    sample.face = static_cast<int>(
         std::min<size_t>(std::upper_bound(cumulative_area.begin(), cumulative_area.end(), pick) -
                              cumulative_area.begin(),
-                         mesh.faces.size() - 1);
-    const Eigen::Vector3i& face = mesh.faces[f];
+                         mesh.faces.size() - 1));
     // Uniform point in a triangle (Osada et al. 2002, "Shape distributions", sec. 4.2).
     const double root_r1 = std::sqrt(UniformUnit(&engine));
     const double r2 = UniformUnit(&engine);
-    const Eigen::Vector3d a = mesh.vertices[face[0]].cast<double>();
-    const Eigen::Vector3d b = mesh.vertices[face[1]].cast<double>();
-    const Eigen::Vector3d c = mesh.vertices[face[2]].cast<double>();
-    const Eigen::Vector3d point = (1.0 - root_r1) * a + root_r1 * (1.0 - r2) * b + root_r1 * r2 * c;
+    sample.weights = Eigen::Vector3d(1.0 - root_r1, root_r1 * (1.0 - r2), root_r1 * r2);
+  }
+  return samples;
+}
+
+std::vector<Eigen::Vector3f> SampleSurface(const Mesh& mesh, int count, uint64_t seed,
+                                           std::vector<Eigen::Vector3f>* normals) {
+  const std::vector<SurfaceSample> samples = SampleSurfaceFaces(mesh, count, seed);
+  std::vector<Eigen::Vector3f> points;
+  points.reserve(samples.size());
+  if (normals != nullptr) {
+    normals->clear();
+    normals->reserve(samples.size());
+  }
+  for (const SurfaceSample& sample : samples) {
+    const Eigen::Vector3i& face = mesh.faces[static_cast<size_t>(sample.face)];
+    const Eigen::Vector3d point = sample.weights[0] * mesh.vertices[face[0]].cast<double>() +
+                                  sample.weights[1] * mesh.vertices[face[1]].cast<double>() +
+                                  sample.weights[2] * mesh.vertices[face[2]].cast<double>();
     points.push_back(point.cast<float>());
     if (normals != nullptr) normals->push_back(FaceCross(mesh, face).normalized().cast<float>());
   }

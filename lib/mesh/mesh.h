@@ -67,6 +67,18 @@ Eigen::AlignedBox3d ComputeBoundingBox(const Mesh& mesh);
 /// Total surface area, square metres. Throws g6d::Error on out-of-range face indices.
 double ComputeSurfaceArea(const Mesh& mesh);
 
+/// One area-weighted surface sample: its face and barycentric weights (w0 + w1 + w2 = 1),
+/// so callers can interpolate any per-vertex attribute (colour, UV, normal) at it.
+struct SurfaceSample {
+  int face = 0;                                         ///< index into Mesh::faces
+  Eigen::Vector3d weights = Eigen::Vector3d::Zero();    ///< barycentric weights of its vertices
+};
+
+/// `count` faces and barycentric weights, uniform over the surface (area-weighted, Osada et
+/// al. 2002 sec. 4.2), deterministic for a given seed on every platform: the sampler behind
+/// SampleSurface(). Throws g6d::Error as SampleSurface() does.
+std::vector<SurfaceSample> SampleSurfaceFaces(const Mesh& mesh, int count, uint64_t seed);
+
 /// `count` points uniformly distributed over the surface (area-weighted), deterministic
 /// for a given seed on every platform. If `normals` is not null it receives the unit face
 /// normal of each point. Throws g6d::Error when count < 0 or (for count > 0) the mesh has

@@ -19,7 +19,6 @@ std::string PnpOptions::Check() const {
   if (!(tau_fraction > 0.0)) out << "PnpOptions.tau_fraction must be > 0 (got " << tau_fraction << ")";
   else if (!(tau_min_px > 0.0 && tau_max_px >= tau_min_px)) out << "PnpOptions.tau_min_px/tau_max_px must satisfy 0 < min <= max (got " << tau_min_px << ", " << tau_max_px << ")";
   else if (max_iterations < 1) out << "PnpOptions.max_iterations must be >= 1 (got " << max_iterations << ")";
-  else if (give_up_iterations < 0) out << "PnpOptions.give_up_iterations must be >= 0 (got " << give_up_iterations << ")";
   else if (!(confidence > 0.0 && confidence < 1.0)) out << "PnpOptions.confidence must be in (0, 1) (got " << confidence << ")";
   else if (min_inliers < 4) out << "PnpOptions.min_inliers must be >= 4 (got " << min_inliers << ")";
   else if (!std::isfinite(max_centre_depth_error)) out << "PnpOptions.max_centre_depth_error must be finite (got " << max_centre_depth_error << ")";
@@ -320,19 +319,15 @@ void EstimatePnp(const PnpOptions& options, const CorrespondenceSet& set, const 
     // fewer than min_inliers of them it cannot confirm a model, so P3P over all of them
     // runs instead. (Running P3P also after a rigid run that found nothing doubled the
     // cost of the many sets from wrong templates and found no extra correct pose.)
-    const bool use_rigid = options.minimal_solver == PnpMinimalSolver::kDepthRigid &&
-                           with_depth.size() >= static_cast<size_t>(std::max(3, options.min_inliers));
+    const bool rigid = options.minimal_solver == PnpMinimalSolver::kDepthRigid &&
+                       with_depth.size() >= static_cast<size_t>(std::max(3, options.min_inliers));
     int iteration = 0;
-    for (const bool rigid : {use_rigid}) {
+    {
       const std::vector<int>& pool = rigid ? with_depth : all;
       std::mt19937_64 rng(options.seed * 0x9E3779B97F4A7C15ULL + static_cast<uint64_t>(set.template_index));
       int needed = options.max_iterations;
       std::vector<Eigen::Isometry3d> models;
       for (int round_iteration = 0; round_iteration < needed; ++round_iteration, ++iteration) {
-        if (options.give_up_iterations > 0 && round_iteration >= options.give_up_iterations &&
-            best_inliers < options.min_inliers) {
-          break;
-        }
         int sample[3];
         if (!problem.DrawSample(pool, &rng, sample)) break;
         models.clear();

@@ -42,11 +42,6 @@ struct PnpOptions {
   double tau_min_px = 3.0;      ///< lower clip of τ_P, pixels
   double tau_max_px = 12.0;     ///< upper clip of τ_P, pixels
   int max_iterations = 300;     ///< RANSAC iterations at most
-  /// A set whose best model still has fewer than min_inliers inliers after this many
-  /// iterations is given up (most sets come from wrong templates; with the stopping ratio
-  /// counted over the sampled pool they would otherwise all run max_iterations).
-  /// 0 = never give up.
-  int give_up_iterations = 100;
   double confidence = 0.99;     ///< RANSAC stopping confidence
   int min_inliers = 6;          ///< fewer MSAC inliers = invalid hypothesis
   uint64_t seed = 7;            ///< base RNG seed; set j uses seed + template index

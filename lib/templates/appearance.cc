@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <random>
 #include <sstream>
 
 #include <opencv2/imgproc.hpp>
@@ -12,12 +11,6 @@
 
 namespace g6d {
 namespace {
-
-// Uniform double in [0, 1) from the top 53 bits: std::uniform_real_distribution is not
-// specified bit-exactly, std::mt19937_64 is, so this gives the same samples everywhere.
-double UniformUnit(std::mt19937_64* engine) {
-  return static_cast<double>((*engine)() >> 11) * 0x1.0p-53;
-}
 
 // Bilinear sample of a CV_8UC3 image at continuous image coordinates (x, y) with pixel
 // centres at +0.5 (the BOP convention of camera.h), clamped at the border; RGB in [0, 1].
@@ -250,40 +243,22 @@ AppearanceModel SampleAppearance(const Mesh& mesh, const AppearanceOptions& opti
     }
   }
 
-  // Area-weighted face sampler (we need the face, SampleSurface() returns only points).
-  std::vector<double> cumulative_area(mesh.faces.size());
-  double total = 0.0;
-  for (size_t f = 0; f < mesh.faces.size(); ++f) {
-    const Eigen::Vector3i& face = mesh.faces[f];
-    const Eigen::Vector3d a = mesh.vertices[face[0]].cast<double>();
-    total += (mesh.vertices[face[1]].cast<double>() - a)
-                 .cross(mesh.vertices[face[2]].cast<double>() - a)
-                 .norm();
-    cumulative_area[f] = total;
-  }
-  if (!(total > 0.0)) {
-    G6D_THROW("SampleAppearance: the mesh has no faces with positive area (" << mesh.faces.size()
-                                                                             << " faces)");
-  }
-
+  // The shared area-weighted sampler, which also gives the face to interpolate colours on.
+  const std::vector<SurfaceSample> samples = [&] {
+    try {
+      return SampleSurfaceFaces(mesh, options.sample_points, options.seed);
+    } catch (const Error& e) {
+      G6D_THROW("SampleAppearance: " << e.what());
+    }
+  }();
   const bool with_vertex_normals = mesh.normals.size() == mesh.vertices.size();
-  std::mt19937_64 engine(options.seed);
-  const size_t count = static_cast<size_t>(options.sample_points);
+  const size_t count = samples.size();
   model.points.reserve(count);
   model.normals.reserve(count);
   model.colors.reserve(count);
-  for (size_t i = 0; i < count; ++i) {
-    const double pick = UniformUnit(&engine) * total;
-    // upper_bound never lands on a zero-area face: its cumulative value equals the previous.
-    const size_t f =
-        std::min<size_t>(std::upper_bound(cumulative_area.begin(), cumulative_area.end(), pick) -
-                             cumulative_area.begin(),
-                         mesh.faces.size() - 1);
-    const Eigen::Vector3i& face = mesh.faces[f];
-    // Uniform point in a triangle (Osada et al. 2002, "Shape distributions", sec. 4.2).
-    const double root_r1 = std::sqrt(UniformUnit(&engine));
-    const double r2 = UniformUnit(&engine);
-    const double w0 = 1.0 - root_r1, w1 = root_r1 * (1.0 - r2), w2 = root_r1 * r2;
+  for (const SurfaceSample& sample : samples) {
+    const Eigen::Vector3i& face = mesh.faces[static_cast<size_t>(sample.face)];
+    const double w0 = sample.weights[0], w1 = sample.weights[1], w2 = sample.weights[2];
     const Eigen::Vector3d a = mesh.vertices[face[0]].cast<double>();
     const Eigen::Vector3d b = mesh.vertices[face[1]].cast<double>();
     const Eigen::Vector3d c = mesh.vertices[face[2]].cast<double>();
