@@ -561,6 +561,7 @@ std::string EstimatesJsonLines(const std::vector<ReplayedFrame>& frames) {
           {"depth_residual", estimate.depth_residual},
           {"truncated", estimate.truncated != 0},
           {"ambiguous", estimate.ambiguous != 0},
+          {"cut_short", estimate.cut_short != 0},
           {"runner_up_score", runner_up_score},
           {"appearance_agreement", appearance_agreement},
           {"hypotheses", estimate.hypotheses},

@@ -74,6 +74,7 @@ pose_estimate_t MakePoseEstimate(const DecodedInstance& instance, const PoseResu
   estimate.iou = result.details.iou;
   estimate.depth_residual = result.details.depth_residual;
   estimate.truncated = result.truncated;
+  estimate.cut_short = result.cut_short;
   estimate.ambiguous = result.ambiguous;
   estimate.has_runner_up = result.has_runner_up;
   if (result.has_runner_up) {

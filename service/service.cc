@@ -52,6 +52,9 @@ Service::Service(const ServiceOptions& options, TemplateStore store, lcm::LCM* l
     G6D_THROW("ServiceOptions: " << error);
   if (lcm_ == nullptr || !lcm_->good()) G6D_THROW("Service: the LCM instance is not usable");
   solver_options_ = options_.solver;
+  // Shutdown cuts running solves short (each returns its best pose so far within about a
+  // millisecond) instead of waiting for them or abandoning them.
+  solver_options_.stop_requested = &stop_solves_;
   service_name_ = options_.name.empty() ? options_.input_channel : options_.name;
   pool_ = std::make_unique<ThreadPool>(options_.workers);
 }
@@ -94,8 +97,9 @@ void Service::Stop() {
   lcm_thread_.join();
   lcm_->unsubscribe(subscription_);
   subscription_ = nullptr;
-  // 2. Drop the waiting frame, abandon instances not yet started, let running ones end.
+  // 2. Drop the waiting frame, abandon instances not yet started, cut running ones short.
   abandon_ = true;
+  stop_solves_ = true;
   if (mailbox_.Stop()) dropped_.fetch_add(1);
   scheduler_thread_.join();
   // 3. A last status, then the status thread.

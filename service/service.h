@@ -121,6 +121,7 @@ class Service {
   std::mutex lifecycle_mutex_;  ///< serializes Start() and Stop()
   bool started_ = false, stopped_ = false;
   std::atomic<bool> abandon_{false};  ///< instances not yet started are abandoned
+  std::atomic<bool> stop_solves_{false};  ///< running solves end now (SolverOptions::stop_requested)
 
   std::mutex status_mutex_;
   std::condition_variable status_wake_;

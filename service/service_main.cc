@@ -87,6 +87,10 @@ int main(int argc, char** argv) {
   auto* max_age =
       app.add_option("--max-age-ms", flags.max_age_ms, "drop frames older than this (0 = never)")
           ->capture_default_str();
+  auto* budget = app.add_option("--budget-ms", flags.solver.budget_ms,
+                                "time budget of one instance's solve; when it runs out the best "
+                                "pose so far is answered, marked cut_short (0 = none)")
+                     ->capture_default_str();
   auto* name = app.add_option("--name", flags.name,
                               "service name in the status (default: the input channel)");
   auto* queue = app.add_option("--subscription-queue", flags.subscription_queue,
@@ -114,6 +118,7 @@ int main(int argc, char** argv) {
   if (given(workers)) options.workers = flags.workers;
   if (given(k)) options.solver.num_hypotheses = hypotheses;
   if (given(max_age)) options.max_age_ms = flags.max_age_ms;
+  if (given(budget)) options.solver.budget_ms = flags.solver.budget_ms;
   if (given(name)) options.name = flags.name;
   if (given(queue)) options.subscription_queue = flags.subscription_queue;
   if (given(shutdown)) options.shutdown_timeout_s = flags.shutdown_timeout_s;

@@ -2,6 +2,7 @@
 // a textured box at random poses with depth noise and partial occlusion.
 #include "solver/pipeline.h"
 
+#include <atomic>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -208,6 +209,43 @@ TEST_F(PipelineTest, PrintedBoxFlipIsResolvedByAppearanceAndNotReportedAsAmbiguo
     correct += ComputeAdd(result.cam_from_object, truth, mesh_->vertices) < 0.1 * bank_->diameter_m;
   }
   EXPECT_EQ(correct, trials);
+}
+
+TEST_F(PipelineTest, TinyBudgetGivesAValidPoseMarkedCutShort) {
+  GlRenderer renderer(*mesh_);
+  std::mt19937_64 rng(3);
+  const Eigen::Isometry3d truth = test::RandomPose(kCamera, 0.5, 0.7, &rng);
+  const test::SyntheticView view = test::RenderSyntheticView(&renderer, *mesh_, kCamera, truth, {});
+  ThreadPool pool(2);
+  SolverOptions options;
+  options.budget_ms = 0.001;  // over before the first stage ends
+  const PoseResult cut = EstimatePose(MakeFrame(view), {"box", view.mask}, *bank_, options, &pool);
+  ASSERT_TRUE(cut.success) << cut.message;
+  EXPECT_TRUE(cut.cut_short);
+  EXPECT_EQ(cut.termination, Termination::kCutShort);
+  EXPECT_NE(cut.message.find("cut short"), std::string::npos) << cut.message;
+  EXPECT_TRUE(cut.cam_from_object.matrix().allFinite());
+  EXPECT_GE(cut.score, 0.0);
+  EXPECT_EQ(cut.stages.kept_hypotheses, 1);  // only what a pose needs
+  EXPECT_FALSE(cut.stages.mhpo.success);
+
+  // A stop request ends it the same way and says so.
+  std::atomic<bool> stop{true};
+  SolverOptions stopped = SolverOptions();
+  stopped.stop_requested = &stop;
+  const PoseResult halted = EstimatePose(MakeFrame(view), {"box", view.mask}, *bank_, stopped, &pool);
+  ASSERT_TRUE(halted.success) << halted.message;
+  EXPECT_TRUE(halted.cut_short);
+  EXPECT_NE(halted.message.find("stop requested"), std::string::npos) << halted.message;
+
+  // A generous budget changes nothing.
+  SolverOptions generous;
+  generous.budget_ms = 1e6;
+  const PoseResult a = EstimatePose(MakeFrame(view), {"box", view.mask}, *bank_, SolverOptions(), &pool);
+  const PoseResult b = EstimatePose(MakeFrame(view), {"box", view.mask}, *bank_, generous, &pool);
+  EXPECT_FALSE(b.cut_short);
+  EXPECT_TRUE(a.cam_from_object.matrix() == b.cam_from_object.matrix());
+  EXPECT_EQ(a.score, b.score);
 }
 
 }  // namespace

@@ -220,6 +220,51 @@ TEST_F(ServiceProcessTest, AnswersOverUdpmAndStopsOnSigterm) {
   EXPECT_EQ(log.find("ThreadSanitizer"), std::string::npos) << log;
 }
 
+TEST_F(ServiceProcessTest, SigtermCutsARunningK36SolveShort) {
+  ASSERT_TRUE(std::filesystem::exists(kServiceBinary)) << kServiceBinary;
+  // The paper's settings and beyond: K = 36, no quick solver options, so each instance
+  // takes hundreds of milliseconds and the frame below seconds.
+  const std::string yaml = *dir_ + "/k36.yaml";
+  std::ofstream(yaml) << "templates: " << *dir_ << "/caches\n"
+                      << "workers: 2\n"
+                      << "hypotheses: 36\n"
+                      << "status_period_s: 0.05\n";
+  const std::string url = BusUrl(3);
+  lcm::LCM lcm(url);
+  ASSERT_TRUE(lcm.good()) << url;
+  test::ServiceListener listener(&lcm, "G6D_POSES", "G6D_STATUS");
+  test::LcmPump pump(&lcm);
+  ServiceProcess service({"--config", yaml, "--lcm-url", url}, *dir_ + "/k36.log");
+  ASSERT_TRUE(service.started());
+  ASSERT_TRUE(WaitUntilUp(&listener).has_value()) << service.Log();
+  rgbd_frame_t heavy =
+      test::MakeRgbdFrame(scene_->views[2], 1, test::kBoxId, "cam0", image_t::COMPRESSION_JPEG);
+  heavy.instances = std::vector<instance_t>(6, heavy.instances[0]);
+  heavy.num_instances = 6;
+  ASSERT_EQ(lcm.publish("G6D_RGBD", &heavy), 0);
+  // The status reports the frame received; a little later its solves are under way.
+  ASSERT_TRUE(
+      listener.statuses
+          .PopUntil(seconds(60), [](const service_status_t& s) { return s.frames_received == 1; })
+          .has_value());
+  std::this_thread::sleep_for(std::chrono::milliseconds(150));
+  double elapsed_s = 0.0;
+  const std::optional<int> exit_status = service.SignalAndWait(SIGTERM, seconds(10), &elapsed_s);
+  const std::string log = service.Log();
+  ASSERT_TRUE(exit_status.has_value()) << "still running 10 s after SIGTERM; log:\n" << log;
+  ASSERT_TRUE(WIFEXITED(*exit_status)) << log;
+  EXPECT_EQ(WEXITSTATUS(*exit_status), 0) << log;
+  // Issue 13's bound: running solves are cut short (SolverOptions::stop_requested), not
+  // waited for. Sanitizer builds run 5-15x slower: only the clean exit is asserted there.
+#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
+  const double max_shutdown_s = 10.0;
+#else
+  const double max_shutdown_s = 0.5;
+#endif
+  EXPECT_LT(elapsed_s, max_shutdown_s) << "shutdown took " << elapsed_s << " s; log:\n" << log;
+  std::cout << "shutdown after SIGTERM during a K = 36 frame took " << elapsed_s << " s\n";
+}
+
 TEST_F(ServiceProcessTest, TwoServicesOnOneBusAnswerOnlyTheirOwnFrames) {
   const std::string url = BusUrl(1);
   lcm::LCM lcm(url);

@@ -2,6 +2,7 @@
 /// @file timer.h
 /// Wall-clock timing for stage reports.
 
+#include <atomic>
 #include <chrono>
 
 namespace g6d {
@@ -31,6 +32,30 @@ class ScopedTimer {
  private:
   double* total_ms_;
   Stopwatch watch_;
+};
+
+/// A solve's time limit and stop request, checked between units of work (a unit that has
+/// started always finishes: the limit is kept to within one unit, about a millisecond for
+/// the solver's per-hypothesis steps). Default-constructed, it never expires.
+class Deadline {
+ public:
+  Deadline() = default;
+  /// budget_ms <= 0: no time limit; stop: when it becomes true the deadline has expired
+  /// (may be null). The clock starts now.
+  Deadline(double budget_ms, const std::atomic<bool>* stop) : budget_ms_(budget_ms), stop_(stop) {}
+  /// True once the budget is used up or a stop was requested.
+  bool Expired() const {
+    return (stop_ != nullptr && stop_->load(std::memory_order_relaxed)) ||
+           (budget_ms_ > 0.0 && watch_.ElapsedMs() >= budget_ms_);
+  }
+  /// True when it expired because of the stop request (not the budget).
+  bool Stopped() const { return stop_ != nullptr && stop_->load(std::memory_order_relaxed); }
+  double ElapsedMs() const { return watch_.ElapsedMs(); }
+
+ private:
+  Stopwatch watch_;
+  double budget_ms_ = 0.0;
+  const std::atomic<bool>* stop_ = nullptr;
 };
 
 }  // namespace g6d

@@ -297,7 +297,8 @@ double EvaluateDepthResidual(const MhpoTarget& target, const Eigen::Vector3d& po
 void RefineByMhpo(const MhpoOptions& options, const ScoreOptions& score_options,
                   const MhpoTarget& target, const Mesh& mesh,
                   const std::vector<Eigen::Isometry3d>& hypotheses, Executor* executor,
-                  Eigen::Isometry3d* best_cam_from_object, MhpoReport* report) {
+                  Eigen::Isometry3d* best_cam_from_object, MhpoReport* report,
+                  const Deadline* deadline) {
   *report = MhpoReport();
   std::string bad = options.Check();
   if (bad.empty()) bad = score_options.Check();
@@ -330,6 +331,10 @@ void RefineByMhpo(const MhpoOptions& options, const ScoreOptions& score_options,
   for (int round = 0; round < options.max_rounds; ++round) {
     if (early_stop_enabled && states[static_cast<size_t>(global_best())].best_score.s < options.early_stop_score) {
       report->early_stopped = true;
+      break;
+    }
+    if (deadline != nullptr && deadline->Expired()) {
+      report->cut_short = true;
       break;
     }
     std::vector<int> active;

@@ -18,6 +18,7 @@
 #include <opencv2/core.hpp>
 
 #include "core/executor.h"
+#include "core/timer.h"
 #include "mesh/mesh.h"
 #include "solver/observation.h"
 #include "solver/score.h"
@@ -73,16 +74,20 @@ struct MhpoReport {
   int best_hypothesis = -1;
   PoseScore best_score;  ///< score of T_A
   bool early_stopped = false;
+  bool cut_short = false;  ///< the deadline expired: rounds were skipped
   std::vector<MhpoHypothesisReport> hypotheses;
 };
 
 /// Refines every pose of `hypotheses` and returns T_A = argmin over hypotheses and rounds
 /// of S (eq. 17) in *best_cam_from_object. Hypotheses fan out over `executor`, in
 /// lock-step rounds, so early stopping and the result do not depend on the thread count.
+/// With a `deadline`, no round starts after it expired (report->cut_short; the result is
+/// the best state reached).
 void RefineByMhpo(const MhpoOptions& options, const ScoreOptions& score_options,
                   const MhpoTarget& target, const Mesh& mesh,
                   const std::vector<Eigen::Isometry3d>& hypotheses, Executor* executor,
-                  Eigen::Isometry3d* best_cam_from_object, MhpoReport* report);
+                  Eigen::Isometry3d* best_cam_from_object, MhpoReport* report,
+                  const Deadline* deadline = nullptr);
 
 /// Residual blocks exposed for tests (Jacobian checks): a silhouette residual of one
 /// contour point and a depth residual of one surface point, under the increment

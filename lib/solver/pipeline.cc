@@ -38,6 +38,7 @@ std::string SolverOptions::Check() const {
   else if (!(ambiguity_margin >= 0.0 && ambiguity_margin < 2.0)) out << "SolverOptions.ambiguity_margin must be in [0, 2) (got " << ambiguity_margin << ")";
   else if (!(appearance_margin >= 0.0 && appearance_margin < 2.0)) out << "SolverOptions.appearance_margin must be in [0, 2) (got " << appearance_margin << ")";
   else if (!(appearance_min_gain >= 0.0 && appearance_min_gain <= 2.0)) out << "SolverOptions.appearance_min_gain must be in [0, 2] (got " << appearance_min_gain << ")";
+  else if (!std::isfinite(budget_ms)) out << "SolverOptions.budget_ms must be finite (got " << budget_ms << ")";
   else if (!(confidence_score_weight < 0.0)) out << "SolverOptions.confidence_score_weight must be < 0 (got " << confidence_score_weight << ")";
   else if (!std::isfinite(confidence_bias) || !std::isfinite(confidence_ambiguous_weight)) out << "SolverOptions.confidence_bias and confidence_ambiguous_weight must be finite";
   return out.str();
@@ -48,6 +49,7 @@ const char* TerminationName(Termination termination) {
     case Termination::kNotRun: return "not_run";
     case Termination::kConverged: return "converged";
     case Termination::kEarlyStopped: return "early_stopped";
+    case Termination::kCutShort: return "cut_short";
     case Termination::kBadInput: return "bad_input";
     case Termination::kNoHypothesis: return "no_hypothesis";
   }
@@ -328,6 +330,15 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
   PoseResult result;
   StageReport& stages = result.stages;
   const Stopwatch total;
+  // Past the deadline every stage keeps only what is needed to return a pose: the first
+  // PnP pose found, its score; `skipped` records that work was left out.
+  const Deadline deadline(options.budget_ms, options.stop_requested);
+  std::atomic<bool> skipped{false};
+  auto out_of_time = [&]() {
+    if (!deadline.Expired()) return false;
+    skipped = true;
+    return true;
+  };
   auto fail = [&](Termination termination, const std::string& message) {
     result.success = false;
     result.termination = termination;
@@ -393,9 +404,12 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
     prior.centre_in_object = bank.bounding_box.center();
     prior.query_points_in_cam = &query_points_in_cam;
     std::vector<PnpResult> pnp(sets.size());
+    std::atomic<bool> any_pose{false};
     executor->ParallelFor(static_cast<int>(sets.size()), [&](int i) {
-      EstimatePnp(options.pnp, sets[static_cast<size_t>(i)], frame.camera, projected_size_px, prior,
-                  &pnp[static_cast<size_t>(i)]);
+      if (any_pose && out_of_time()) return;
+      PnpResult& p = pnp[static_cast<size_t>(i)];
+      EstimatePnp(options.pnp, sets[static_cast<size_t>(i)], frame.camera, projected_size_px, prior, &p);
+      if (p.success) any_pose = true;
     });
     std::vector<Eigen::Isometry3d> hypotheses;
     for (const PnpResult& p : pnp) {
@@ -412,6 +426,7 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
     const std::vector<Eigen::Vector3d> distance_points = DistancePoints(bank.online_mesh, 64);
     std::vector<PoseScore> observable(hypotheses.size());
     executor->ParallelFor(static_cast<int>(hypotheses.size()), [&](int i) {
+      if (i > 0 && out_of_time()) return;  // unscored: E_obs stays at its worst
       RasterImage scratch;
       observable[static_cast<size_t>(i)] = ScorePose(selection_grid, bank.online_mesh, hypotheses[static_cast<size_t>(i)], z_m, options.score, &scratch);
     });
@@ -427,6 +442,7 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
     std::vector<int> kept_order;
     for (int i : order) {
       if (kept.size() >= static_cast<size_t>(options.num_hypotheses)) break;
+      if (!kept.empty() && out_of_time()) break;
       const Eigen::Isometry3d& pose = hypotheses[static_cast<size_t>(i)];
       bool distinct = true;
       for (size_t k = 0; k < kept.size() && distinct; ++k) {
@@ -449,9 +465,10 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
     std::vector<PoseScore> icp_scores(kept.size());
     std::vector<int> icp_ok(kept.size(), 0);
     executor->ParallelFor(static_cast<int>(kept.size()), [&](int k) {
+      if (k > 0 && out_of_time()) return;  // not refined, not scored: S stays at its worst
       RasterImage scratch;
       Eigen::Isometry3d& pose = kept[static_cast<size_t>(k)];
-      if (options.run_icp) {
+      if (options.run_icp && !(k == 0 && out_of_time())) {
         const std::vector<Eigen::Vector3d> source =
             VisibleModelPoints(bank.online_mesh, refine_grid, pose, options.score, options.max_source_points, &scratch);
         IcpReport icp_report;
@@ -474,10 +491,12 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
     result.cam_from_object = stages.icp_pose;
     result.details = icp_scores[static_cast<size_t>(best_after_icp)];
     result.termination = Termination::kConverged;
-    if (options.run_mhpo) {
+    if (options.run_mhpo && !out_of_time()) {
       const MhpoTarget target = MakeMhpoTarget(refine_grid, z_m);
       Eigen::Isometry3d best;
-      RefineByMhpo(options.mhpo, options.score, target, bank.online_mesh, kept, executor, &best, &stages.mhpo);
+      RefineByMhpo(options.mhpo, options.score, target, bank.online_mesh, kept, executor, &best, &stages.mhpo,
+                   &deadline);
+      if (stages.mhpo.cut_short) skipped = true;
       if (stages.mhpo.success && stages.mhpo.best_score.s <= result.details.s) {
         result.cam_from_object = best;
         result.details = stages.mhpo.best_score;
@@ -495,7 +514,7 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
     }
 
     // ---- stage 6 (optional): post-refinement of a poor T_A
-    if (options.post_refine && result.details.s > options.post_refine_trigger_s) {
+    if (options.post_refine && result.details.s > options.post_refine_trigger_s && !out_of_time()) {
       watch.Restart();
       stages.post_refine_ran = true;
       std::vector<Eigen::Isometry3d> extra = PostRefineHypotheses(result.cam_from_object, bank, frame.camera, box, z_m);
@@ -521,12 +540,23 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
     // ---- finalists: merge symmetric duplicates, appearance tie-break, ambiguity
     watch.Restart();
     finalists.push_back(Finalist{result.cam_from_object, result.details});  // T_A (stage 6 may have moved it)
-    ResolveFinalists(options, bank, frame, mask, symmetries, distance_points, std::move(finalists), &result);
+    if (!out_of_time()) {
+      ResolveFinalists(options, bank, frame, mask, symmetries, distance_points, std::move(finalists), &result);
+    }
     stages.finalists_ms = watch.ElapsedMs();
     result.score = result.details.s;
     result.confidence = ConfidenceFromScore(options, result.score, result.ambiguous);
     result.success = true;
     result.message = "ok";
+    if (skipped) {
+      result.cut_short = true;
+      result.termination = Termination::kCutShort;
+      std::ostringstream message;
+      message << "ok, cut short after " << static_cast<int>(deadline.ElapsedMs()) << " ms ("
+              << (deadline.Stopped() ? "stop requested" : "budget " + std::to_string(static_cast<int>(options.budget_ms)) + " ms")
+              << "): the best pose so far";
+      result.message = message.str();
+    }
     stages.total_ms = total.ElapsedMs();
     return result;
   } catch (const std::exception& e) {

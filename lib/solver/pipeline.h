@@ -3,6 +3,7 @@
 /// EstimatePose: the whole G6D online pipeline for one instance (paper Sec. III-C..E):
 /// match -> MSAC-PnP -> observable selection -> trimmed ICP -> MHPO, selected by S.
 
+#include <atomic>
 #include <string>
 #include <vector>
 
@@ -68,6 +69,13 @@ struct SolverOptions {
   /// objects are solved, the rendered silhouette outside the image never counts against a
   /// pose, and the result says `truncated`.
   bool reject_border_masks = false;
+  /// Time budget of one EstimatePose call, milliseconds; <= 0 = none. When it is used up the
+  /// solver skips the remaining work (always keeping the best-ranked template's PnP pose, so
+  /// that a pose can be returned) and returns T_A / S_A so far with `cut_short` set.
+  double budget_ms = 0.0;
+  /// When not null and it becomes true, the solve ends the same way as at the budget
+  /// (the service sets it at shutdown). Read only; the caller owns it.
+  const std::atomic<bool>* stop_requested = nullptr;
   /// Hypotheses closer than this fraction of the diameter (ADD modulo the mesh's
   /// symmetries) are one pose: observable selection fills its K slots with distinct poses.
   double distinct_pose_fraction = 0.05;
@@ -106,6 +114,7 @@ enum class Termination {
   kNotRun,
   kConverged,     ///< all stages ran; the best state is T_A
   kEarlyStopped,  ///< MHPO stopped early: S_A fell below the threshold
+  kCutShort,      ///< the budget ran out (or a stop was requested): T_A is the best so far
   kBadInput,      ///< the frame, mask or bank was unusable (see message)
   kNoHypothesis,  ///< matching or PnP produced no valid pose
 };
@@ -150,6 +159,9 @@ struct PoseResult {
   Eigen::Isometry3d cam_from_object = Eigen::Isometry3d::Identity();  ///< T_A
   double score = 2.0;        ///< S_A (eq. 12), lower is better
   bool truncated = false;    ///< the instance mask touches the image border (object cut off)
+  /// The solve was cut short by SolverOptions::budget_ms or stop_requested: stages were
+  /// skipped and T_A is the best pose found until then (termination kCutShort).
+  bool cut_short = false;
   /// A pose that is not a symmetry of the mesh scores (nearly) as well as T_A and
   /// appearance does not tell them apart: the runner-up below is a plausible answer too.
   bool ambiguous = false;
