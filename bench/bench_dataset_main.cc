@@ -66,6 +66,8 @@ int main(int argc, char** argv) {
   app.add_option("--every", every, "run every N-th target instance only (quick looks)")->capture_default_str();
   app.add_option("--records", records_csv, "per-instance CSV (S_A, confidence, error, correct) for calibration");
   app.add_option("--pnp-iterations", pnp_iterations, "MSAC-PnP iterations at most (0 = default)");
+  double budget_ms = 0.0;
+  app.add_option("--budget-ms", budget_ms, "time budget per instance (0 = none): answers are cut short when it runs out");
   app.add_flag("--pnp-prosac", prosac, "PROSAC sampling ordered by Hamming distance (opencv solver)");
   std::string pnp_solver = "depth";
   app.add_option("--pnp-solver", pnp_solver, "MSAC-PnP minimal solver: depth | p3p | opencv")->capture_default_str();
@@ -107,6 +109,7 @@ int main(int argc, char** argv) {
     if (pnp_iterations > 0) options.pnp.max_iterations = pnp_iterations;
     options.pnp.progressive_sampling = prosac;
     options.reject_border_masks = reject_border;
+    options.budget_ms = budget_ms;
     if (no_appearance) options.appearance_tiebreak = false;
     if (no_occlusion) options.score.occlusion_margin_m = 0.0;
     if (no_dedupe) options.distinct_pose_fraction = 0.0;
@@ -138,7 +141,7 @@ int main(int argc, char** argv) {
     std::map<std::string, std::vector<double>> times;
     std::vector<g6d::BopEstimate> estimates;
     std::map<std::pair<int, int>, double> image_time_s;
-    int done = 0;
+    int done = 0, cut_short = 0;
     for (const g6d::BopTarget& target : dataset.targets) {
       if (!scenes.count(target.scene_id)) scenes.emplace(target.scene_id, g6d::LoadBopScene(dataset_dir, target.scene_id));
       const g6d::BopScene& scene = scenes.at(target.scene_id);
@@ -249,6 +252,7 @@ int main(int argc, char** argv) {
         times["finalists"].push_back(s.finalists_ms);
         times["total"].push_back(s.total_ms);
         ++done;
+        cut_short += result.cut_short ? 1 : 0;
         std::fprintf(stderr, "[%d] scene %d im %d obj %d: %s%s%s S %.3f ADD%s %.1f mm (%.2f d) %.0f ms", done,
                      target.scene_id, target.im_id, target.obj_id, result.success ? "ok" : result.message.c_str(),
                      result.truncated ? " (truncated)" : "", result.ambiguous ? " (ambiguous)" : "", result.score,
@@ -308,6 +312,7 @@ int main(int argc, char** argv) {
     struct rusage usage;
     getrusage(RUSAGE_SELF, &usage);
     std::printf(" |\n\npeak resident memory: %.0f MB\n", usage.ru_maxrss / 1024.0);
+    if (budget_ms > 0.0) std::printf("budget %.0f ms per instance: %d of %d answers cut short\n", budget_ms, cut_short, done);
     std::printf("\nlatency per instance (ms)\n| stage | p50 | p95 |\n|---|---|---|\n");
     for (const char* stage : {"features", "match", "pnp", "observable", "icp", "mhpo", "post_refine", "finalists", "total"}) {
       std::printf("| %s | %.1f | %.1f |\n", stage, Percentile(times[stage], 0.5), Percentile(times[stage], 0.95));
