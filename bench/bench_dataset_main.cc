@@ -84,7 +84,8 @@ int main(int argc, char** argv) {
   app.add_flag("--reject-border-masks", reject_border, "refuse masks that touch the image border (truncated objects)");
   app.add_option("--adds-ids", adds_ids, "object ids scored with ADD-S besides models_info's symmetric ones (e.g. 1 for the YCB-V can)")
       ->delimiter(',');
-  bool no_appearance = false, no_occlusion = false, no_dedupe = false;
+  bool no_appearance = false, no_occlusion = false, no_dedupe = false, point_to_plane = false;
+  app.add_flag("--icp-point-to-plane", point_to_plane, "point-to-plane ICP on the observed normals instead of the paper's point-to-point");
   app.add_flag("--no-appearance", no_appearance, "no appearance tie-break among finalists (ablation)");
   app.add_flag("--no-occlusion", no_occlusion, "no occlusion reasoning in the scores, ICP and MHPO (ablation)");
   app.add_flag("--no-dedupe", no_dedupe, "keep hypotheses equal modulo symmetry as separate K slots (ablation)");
@@ -113,6 +114,7 @@ int main(int argc, char** argv) {
     if (no_appearance) options.appearance_tiebreak = false;
     if (no_occlusion) options.score.occlusion_margin_m = 0.0;
     if (no_dedupe) options.distinct_pose_fraction = 0.0;
+    if (point_to_plane) options.icp.point_to_plane = true;
     options.post_refine = post_refine;
     if (icp_min_step > 0) options.icp.min_step_m = icp_min_step;
     if (icp_iterations > 0) options.icp.max_iterations = icp_iterations;

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/error.h"
 #include "core/se3.h"
 
 namespace g6d {
@@ -89,6 +90,50 @@ TEST(RefineByTrimmedIcp, FailsCleanlyWithTooFewPoints) {
   EXPECT_FALSE(report.success);
   EXPECT_NE(report.message.find("too few"), std::string::npos);
   EXPECT_TRUE(pose.isApprox(Eigen::Isometry3d::Identity()));
+}
+
+TEST(RefineByTrimmedIcp, PointToPlaneConvergesInFewerIterationsThanPointToPoint) {
+  std::mt19937_64 rng(19);
+  const auto model = MakeObjectPoints(&rng, 2000);
+  const Eigen::Isometry3d truth = MakePose(ExpSO3(Eigen::Vector3d(0.3, -0.2, 0.9)), Eigen::Vector3d(0.02, -0.03, 0.8));
+  std::vector<Eigen::Vector3d> observed, normals;
+  for (size_t i = 0; i < model.size(); i += 2) {
+    observed.push_back(truth * model[i]);
+    // The face a point lies on: the coordinate at -half (MakeObjectPoints' faces).
+    const Eigen::Vector3d half(0.05, 0.03, 0.02);
+    Eigen::Vector3d normal_in_object = Eigen::Vector3d::Zero();
+    for (int axis = 0; axis < 3; ++axis) {
+      if (std::abs(model[i][axis] + half[axis]) < 1e-12) normal_in_object[axis] = -1.0;
+    }
+    normals.push_back(truth.linear() * normal_in_object.normalized());
+  }
+  const PointCloudIndex with_normals(observed, normals);
+  std::vector<Eigen::Vector3d> source;
+  for (size_t i = 1; i < model.size(); i += 4) source.push_back(model[i]);
+  Eigen::Isometry3d start = truth;
+  start.linear() = ExpSO3(Eigen::Vector3d(0.05, -0.04, 0.03)) * start.linear();  // about 4 deg
+  start.translation() += Eigen::Vector3d(0.008, -0.006, 0.010);                    // 14 mm
+  IcpOptions plane;
+  plane.point_to_plane = true;
+  plane.max_iterations = 200;
+  IcpOptions point = plane;
+  point.point_to_plane = false;
+  Eigen::Isometry3d by_plane = start, by_point = start;
+  IcpReport plane_report, point_report;
+  RefineByTrimmedIcp(plane, source, with_normals, 0.12, &by_plane, &plane_report);
+  RefineByTrimmedIcp(point, source, with_normals, 0.12, &by_point, &point_report);
+  ASSERT_TRUE(plane_report.success && point_report.success);
+  EXPECT_LT(RotationErrorDeg(by_plane.linear(), truth.linear()), 0.5);
+  EXPECT_LT(TranslationError(by_plane, truth), 0.001);
+  EXPECT_LT(plane_report.iterations, point_report.iterations)
+      << "point-to-plane " << plane_report.iterations << ", point-to-point " << point_report.iterations;
+  // Without normals the option falls back to point-to-point.
+  const PointCloudIndex without_normals(observed);
+  Eigen::Isometry3d fallback = start;
+  IcpReport fallback_report;
+  RefineByTrimmedIcp(plane, source, without_normals, 0.12, &fallback, &fallback_report);
+  EXPECT_EQ(fallback_report.iterations, point_report.iterations);
+  EXPECT_THROW(PointCloudIndex(observed, std::vector<Eigen::Vector3d>(3)), Error);
 }
 
 }  // namespace

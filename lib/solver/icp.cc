@@ -5,6 +5,8 @@
 #include <numeric>
 #include <sstream>
 
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
 #include <Eigen/SVD>
 #include <open3d/geometry/KDTreeFlann.h>
 
@@ -22,6 +24,14 @@ PointCloudIndex::PointCloudIndex(std::vector<Eigen::Vector3d> points)
   impl_->data.resize(3, static_cast<Eigen::Index>(points_.size()));
   for (size_t i = 0; i < points_.size(); ++i) impl_->data.col(static_cast<Eigen::Index>(i)) = points_[i];
   if (!points_.empty()) impl_->tree.SetMatrixData(impl_->data);
+}
+
+PointCloudIndex::PointCloudIndex(std::vector<Eigen::Vector3d> points, std::vector<Eigen::Vector3d> normals)
+    : PointCloudIndex(std::move(points)) {
+  if (normals.size() != points_.size()) {
+    G6D_THROW("PointCloudIndex: " << normals.size() << " normals for " << points_.size() << " points");
+  }
+  normals_ = std::move(normals);
 }
 
 PointCloudIndex::~PointCloudIndex() = default;
@@ -83,6 +93,39 @@ Eigen::Isometry3d AlignRigid(const std::vector<Eigen::Vector3d>& source,
   return transform;
 }
 
+namespace {
+
+// One linearized point-to-plane step: the small rotation w and translation t minimizing
+// sum ((p + w x p + t - q) . n)^2 over the pairs with a normal; false when fewer than
+// `min_pairs` have one or the system is degenerate (then the caller uses Kabsch).
+bool PointToPlaneUpdate(const std::vector<Eigen::Vector3d>& source, const std::vector<Eigen::Vector3d>& target,
+                        const std::vector<Eigen::Vector3d>& normals, int min_pairs, Eigen::Isometry3d* update) {
+  Eigen::Matrix<double, 6, 6> normal_matrix = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
+  int pairs = 0;
+  for (size_t i = 0; i < source.size(); ++i) {
+    const Eigen::Vector3d& n = normals[i];
+    if (n.squaredNorm() < 0.5) continue;  // no normal known
+    Eigen::Matrix<double, 6, 1> row;
+    row << source[i].cross(n), n;
+    normal_matrix += row * row.transpose();
+    rhs += row * (target[i] - source[i]).dot(n);
+    ++pairs;
+  }
+  if (pairs < min_pairs) return false;
+  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> solver(normal_matrix);
+  if (solver.info() != Eigen::Success) return false;
+  const Eigen::Matrix<double, 6, 1> x = solver.solve(rhs);
+  if (!x.allFinite()) return false;
+  const Eigen::Vector3d w = x.head<3>();
+  *update = Eigen::Isometry3d::Identity();
+  if (w.norm() > 1e-12) update->linear() = Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix();
+  update->translation() = x.tail<3>();
+  return true;
+}
+
+}  // namespace
+
 void RefineByTrimmedIcp(const IcpOptions& options, const std::vector<Eigen::Vector3d>& source_in_object,
                         const PointCloudIndex& target, double diameter_m,
                         Eigen::Isometry3d* cam_from_object, IcpReport* report) {
@@ -106,7 +149,8 @@ void RefineByTrimmedIcp(const IcpOptions& options, const std::vector<Eigen::Vect
   std::vector<int> nearest(n);
   std::vector<double> squared(n);
   std::vector<size_t> order(n);
-  std::vector<Eigen::Vector3d> kept_source, kept_target;
+  std::vector<Eigen::Vector3d> kept_source, kept_target, kept_normal;
+  const bool use_plane = options.point_to_plane && target.normals().size() == target.points().size();
   for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
     for (size_t i = 0; i < n; ++i) moved[i] = pose * source_in_object[i];
     target.NearestAll(moved, &nearest, &squared);
@@ -117,12 +161,14 @@ void RefineByTrimmedIcp(const IcpOptions& options, const std::vector<Eigen::Vect
     std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return squared[a] < squared[b]; });
     kept_source.clear();
     kept_target.clear();
+    kept_normal.clear();
     double sum_squared = 0.0;
     for (size_t k = 0; k < keep; ++k) {
       const size_t i = order[k];
       if (nearest[i] < 0 || squared[i] >= r_max_squared) break;
       kept_source.push_back(moved[i]);
       kept_target.push_back(target.points()[static_cast<size_t>(nearest[i])]);
+      if (use_plane) kept_normal.push_back(target.normals()[static_cast<size_t>(nearest[i])]);
       sum_squared += squared[i];
     }
     report->iterations = iteration + 1;
@@ -132,7 +178,10 @@ void RefineByTrimmedIcp(const IcpOptions& options, const std::vector<Eigen::Vect
       return;
     }
     report->rmse_m = std::sqrt(sum_squared / kept_source.size());
-    const Eigen::Isometry3d update = AlignRigid(kept_source, kept_target);
+    Eigen::Isometry3d update = Eigen::Isometry3d::Identity();
+    if (!(use_plane && PointToPlaneUpdate(kept_source, kept_target, kept_normal, options.min_correspondences, &update))) {
+      update = AlignRigid(kept_source, kept_target);
+    }
     pose = update * pose;
     // Largest displacement of a kept point caused by this update.
     double step = 0.0;

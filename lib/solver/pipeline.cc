@@ -91,6 +91,11 @@ bool TouchesBorder(const cv::Rect& box, const cv::Size& size) {
   return box.x == 0 || box.y == 0 || box.x + box.width == size.width || box.y + box.height == size.height;
 }
 
+// Observed normals: from the depth kNormalReachPx pixels to each side, all within
+// kNormalMaxStepM of the centre depth (a larger step is an edge or a flying pixel).
+constexpr int kNormalReachPx = 2;
+constexpr float kNormalMaxStepM = 0.02f;
+
 // The observed data of one instance, shared read-only by every hypothesis.
 struct Observation {
   cv::Mat mask;              // CV_8U 0/255, frame size
@@ -124,16 +129,37 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
     return "the mask has " + std::to_string(valid_depth) + " pixels with valid depth (need " +
            std::to_string(options.min_valid_depth_pixels) + ")";
   }
-  // Observed cloud Y, deterministic image-space subsampling.
+  // Observed cloud Y, deterministic image-space subsampling, with a normal per point from
+  // its depth neighbours (for point-to-plane ICP; zero where a neighbour is missing, off the
+  // mask or across a depth step).
   const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(valid_depth) / options.max_observed_points))));
-  std::vector<Eigen::Vector3d> observed;
+  const int reach = kNormalReachPx;
+  auto neighbour = [&](int u, int v, float z, Eigen::Vector3d* point) {
+    if (u < 0 || v < 0 || u >= depth.cols || v >= depth.rows || !mask.at<uint8_t>(v, u)) return false;
+    const float zn = depth.at<float>(v, u);
+    if (!(zn > 0.0f) || std::abs(zn - z) > kNormalMaxStepM) return false;
+    *point = frame.camera.Backproject(PixelCentre(u, v), zn);
+    return true;
+  };
+  std::vector<Eigen::Vector3d> observed, normals;
   for (int v = box.y + stride / 2; v < box.y + box.height; v += stride) {
     for (int u = box.x + stride / 2; u < box.x + box.width; u += stride) {
       const float z = depth.at<float>(v, u);
-      if (mask.at<uint8_t>(v, u) && z > 0.0f) observed.push_back(frame.camera.Backproject(PixelCentre(u, v), z));
+      if (!mask.at<uint8_t>(v, u) || !(z > 0.0f)) continue;
+      const Eigen::Vector3d point = frame.camera.Backproject(PixelCentre(u, v), z);
+      observed.push_back(point);
+      Eigen::Vector3d left, right, up, down, normal = Eigen::Vector3d::Zero();
+      if (neighbour(u - reach, v, z, &left) && neighbour(u + reach, v, z, &right) && neighbour(u, v - reach, z, &up) &&
+          neighbour(u, v + reach, z, &down)) {
+        normal = (right - left).cross(down - up);
+        const double length = normal.norm();
+        normal = length > 0.0 ? Eigen::Vector3d(normal / length) : Eigen::Vector3d::Zero();
+        if (normal.dot(point) > 0.0) normal = -normal;  // towards the camera
+      }
+      normals.push_back(normal);
     }
   }
-  observation->observed = std::make_unique<PointCloudIndex>(std::move(observed));
+  observation->observed = std::make_unique<PointCloudIndex>(std::move(observed), std::move(normals));
   observation->selection_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.selection_grid);
   observation->refine_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.refine_grid);
   return "";
