@@ -4,6 +4,9 @@
 #   bash scripts/sanitize.sh          # both suites
 #   bash scripts/sanitize.sh asan     # AddressSanitizer + UndefinedBehaviorSanitizer: every test
 #   bash scripts/sanitize.sh tsan     # ThreadSanitizer: the service and thread-pool tests
+#   bash scripts/sanitize.sh ci       # what .ci/run runs: ASan + UBSan on the tests of the code
+#                                     # that parses untrusted bytes or does geometry in raw loops
+#                                     # (ASAN_CI_TESTS below, the fuzz corpora), then tsan
 # Build folders: build-asan/ and build-tsan/ (Release + -g). Extra arguments after the suite
 # go to ctest, e.g. `bash scripts/sanitize.sh asan -R cache_test`.
 set -euo pipefail
@@ -12,8 +15,8 @@ ROOT="$PWD"
 SUITE="${1:-all}"
 if [[ $# -gt 0 ]]; then shift; fi
 case "${SUITE}" in
-  all | asan | tsan) ;;
-  *) echo "usage: bash scripts/sanitize.sh [all|asan|tsan] [ctest args]" >&2; exit 2 ;;
+  all | asan | tsan | ci) ;;
+  *) echo "usage: bash scripts/sanitize.sh [all|asan|tsan|ci] [ctest args]" >&2; exit 2 ;;
 esac
 
 # Tests under ThreadSanitizer: everything that runs threads of ours (the service, its LCM
@@ -23,7 +26,31 @@ TSAN_TESTS=(service_test service_process_test frame_codec_test mailbox_test serv
   template_store_test executor_test template_bank_test pipeline_test)
 TSAN_TARGETS=("${TSAN_TESTS[@]}" g6d-service)
 
+# The ASan subset of the CI run (a cold build of every test under ASan took about 40 of CI's
+# 90 minutes on 2 cores): the message, image, cache and BOP parsers with their fuzz corpora,
+# the mesh, symmetry, appearance, rasterizer and solver stages, and the service end to end.
+ASAN_CI_TESTS=(cache_test frame_codec_test bop_test bop_csv_test mesh_test symmetry_test appearance_test
+  raster_test pnp_test icp_test mhpo_test score_test pipeline_test service_test)
+FUZZ_TARGETS=(frame_message image_decode template_cache bop_json bop_csv)
+
 START=$(date +%s)
+run_asan_ci() {
+  echo "[sanitize] AddressSanitizer + UndefinedBehaviorSanitizer: build-asan, ${ASAN_CI_TESTS[*]} and the fuzz corpora"
+  local targets=("${ASAN_CI_TESTS[@]}")
+  for name in "${FUZZ_TARGETS[@]}"; do targets+=("g6d-fuzz-replay-${name}"); done
+  BUILD_DIR=build-asan CMAKE_ARGS="-DG6D_SANITIZE=address,undefined -DG6D_BUILD_BENCH=OFF" \
+    BUILD_TARGETS="${targets[*]}" G6D_SKIP_APT=1 bash scripts/setup.sh
+  local regex
+  regex="^(($(IFS='|'; echo "${ASAN_CI_TESTS[*]}"))\\.|fuzz_corpus\\.)"
+  (
+    cd build-asan
+    export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1:check_initialization_order=1:strict_init_order=1:detect_stack_use_after_return=1:print_summary=1"
+    export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1:suppressions=${ROOT}/tests/ubsan_suppressions.txt"
+    export LSAN_OPTIONS="suppressions=${ROOT}/tests/lsan_suppressions.txt:print_suppressions=0"
+    ctest --output-on-failure -j"${JOBS:-2}" -R "${regex}" "$@"
+  )
+}
+
 run_asan() {
   echo "[sanitize] AddressSanitizer + UndefinedBehaviorSanitizer: build-asan, every test"
   BUILD_DIR=build-asan CMAKE_ARGS="-DG6D_SANITIZE=address,undefined -DG6D_BUILD_BENCH=OFF" \
@@ -53,8 +80,9 @@ run_tsan() {
 # The Debian packages once (setup.sh is idempotent); the suites below only build.
 if [[ "${G6D_SKIP_APT:-0}" != "1" ]]; then G6D_SKIP_BUILD=1 bash scripts/setup.sh; fi
 if [[ "${SUITE}" == all || "${SUITE}" == asan ]]; then run_asan "$@"; fi
+if [[ "${SUITE}" == ci ]]; then run_asan_ci "$@"; fi
 ASAN_END=$(date +%s)
-if [[ "${SUITE}" == all || "${SUITE}" == tsan ]]; then run_tsan "$@"; fi
+if [[ "${SUITE}" == all || "${SUITE}" == tsan || "${SUITE}" == ci ]]; then run_tsan "$@"; fi
 END=$(date +%s)
 echo "[sanitize] passed (${SUITE}): $((END - START)) s in all" \
   "(asan $((ASAN_END - START)) s, tsan $((END - ASAN_END)) s)"
