@@ -33,6 +33,13 @@ ASAN_CI_TESTS=(cache_test frame_codec_test bop_test bop_csv_test mesh_test symme
   raster_test pnp_test icp_test mhpo_test score_test pipeline_test service_test)
 FUZZ_TARGETS=(frame_message image_decode template_cache bop_json bop_csv)
 
+# The runtime options of both ASan runs: leaks, stop at the first report, suppressions.
+asan_environment() {
+  export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1:check_initialization_order=1:strict_init_order=1:detect_stack_use_after_return=1:print_summary=1"
+  export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1:suppressions=${ROOT}/tests/ubsan_suppressions.txt"
+  export LSAN_OPTIONS="suppressions=${ROOT}/tests/lsan_suppressions.txt:print_suppressions=0"
+}
+
 START=$(date +%s)
 run_asan_ci() {
   echo "[sanitize] AddressSanitizer + UndefinedBehaviorSanitizer: build-asan, ${ASAN_CI_TESTS[*]} and the fuzz corpora"
@@ -44,9 +51,7 @@ run_asan_ci() {
   regex="^(($(IFS='|'; echo "${ASAN_CI_TESTS[*]}"))\\.|fuzz_corpus\\.)"
   (
     cd build-asan
-    export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1:check_initialization_order=1:strict_init_order=1:detect_stack_use_after_return=1:print_summary=1"
-    export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1:suppressions=${ROOT}/tests/ubsan_suppressions.txt"
-    export LSAN_OPTIONS="suppressions=${ROOT}/tests/lsan_suppressions.txt:print_suppressions=0"
+    asan_environment
     ctest --output-on-failure -j"${JOBS:-2}" -R "${regex}" "$@"
   )
 }
@@ -57,9 +62,7 @@ run_asan() {
     G6D_SKIP_APT=1 bash scripts/setup.sh
   (
     cd build-asan
-    export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1:check_initialization_order=1:strict_init_order=1:detect_stack_use_after_return=1:print_summary=1"
-    export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1:suppressions=${ROOT}/tests/ubsan_suppressions.txt"
-    export LSAN_OPTIONS="suppressions=${ROOT}/tests/lsan_suppressions.txt:print_suppressions=0"
+    asan_environment
     ctest --output-on-failure -j"${JOBS:-2}" "$@"
   )
 }
