@@ -68,8 +68,6 @@ constexpr double kMaxPercentile = 0.95;
 // (dihedral); a longer closure means inconsistent generators.
 constexpr size_t kMaxGroupSize = 256;
 // Grid step and final precision of the revolution angle in SymmetricPoseDistance().
-constexpr double kPoseGridStepRad = 1.0 * kDegree;
-constexpr double kPoseAngleToleranceRad = 1e-6;
 
 // Closest point to `p` on the triangle (a, b, c) (Ericson, Real-Time Collision Detection,
 // Sec. 5.1.5). The triangle must have positive area.
@@ -623,42 +621,26 @@ double SymmetricPoseDistance(const MeshSymmetries& symmetries,
     for (const Eigen::Isometry3d& g : elements) best = std::min(best, mean_distance(g));
     return best;
   }
+  // The rotation about the axis that best aligns a's points with b g's is found in closed
+  // form (least squares in the plane normal to the axis, a 2D Procrustes problem): exact
+  // for poses related by a revolution and cheap enough to compare every pair of solver
+  // hypotheses. The unrotated element is measured too, so this never exceeds plain ADD.
   const Eigen::Vector3d axis = symmetries.axis.normalized();
-  auto revolve = [&](double angle_rad, const Eigen::Isometry3d& g) {
-    return AboutPoint(Eigen::AngleAxisd(angle_rad, axis).toRotationMatrix(), symmetries.point) * g;
-  };
-  const int steps = static_cast<int>(std::ceil(2.0 * M_PI / kPoseGridStepRad));
+  const Eigen::Vector3d& centre = symmetries.point;
   for (const Eigen::Isometry3d& g : elements) {
-    double best_angle = 0.0, best_on_grid = std::numeric_limits<double>::infinity();
-    for (int i = 0; i < steps; ++i) {
-      const double angle = 2.0 * M_PI * i / steps;
-      const double distance = mean_distance(revolve(angle, g));
-      if (distance < best_on_grid) {
-        best_on_grid = distance;
-        best_angle = angle;
-      }
+    const Eigen::Isometry3d object_from_b_g = (b * g).inverse();
+    double cos_sum = 0.0, sin_sum = 0.0;
+    for (size_t i = 0; i < model_points_m.size(); ++i) {
+      // a x in b g's object frame against x, relative to the axis: a x = b g R x for the
+      // rotation R about the axis that the sums below determine.
+      const Eigen::Vector3d p = object_from_b_g * a_points[i] - centre, q = model_points_m[i] - centre;
+      const Eigen::Vector3d p_perp = p - p.dot(axis) * axis, q_perp = q - q.dot(axis) * axis;
+      cos_sum += q_perp.dot(p_perp);
+      sin_sum += axis.dot(q_perp.cross(p_perp));
     }
-    // Golden-section search in the grid cells either side of the best grid angle.
-    const double golden = (std::sqrt(5.0) - 1.0) / 2.0;
-    double low = best_angle - 2.0 * M_PI / steps, high = best_angle + 2.0 * M_PI / steps;
-    double left = high - golden * (high - low), right = low + golden * (high - low);
-    double f_left = mean_distance(revolve(left, g)), f_right = mean_distance(revolve(right, g));
-    while (high - low > kPoseAngleToleranceRad) {
-      if (f_left < f_right) {
-        high = right;
-        right = left;
-        f_right = f_left;
-        left = high - golden * (high - low);
-        f_left = mean_distance(revolve(left, g));
-      } else {
-        low = left;
-        left = right;
-        f_left = f_right;
-        right = low + golden * (high - low);
-        f_right = mean_distance(revolve(right, g));
-      }
-    }
-    best = std::min({best, best_on_grid, f_left, f_right});
+    const double angle = std::atan2(sin_sum, cos_sum);
+    best = std::min({best, mean_distance(g),
+                     mean_distance(g * AboutPoint(Eigen::AngleAxisd(angle, axis).toRotationMatrix(), centre))});
   }
   return best;
 }

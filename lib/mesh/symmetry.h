@@ -107,8 +107,9 @@ MeshSymmetries FindSymmetries(const Mesh& mesh, const SymmetryOptions& options =
 
 /// ADD between two poses modulo the symmetries: the smallest mean over `model_points_m`
 /// x of |a * x - b * g * x| over every symmetry g, metres. The g are the identity and
-/// `discrete`, and with a revolution each of them composed with the rotations about the
-/// axis (1-degree grid, then the best angle refined to about 1e-6 rad). `a` and `b` are
+/// `discrete`, and with a revolution each of them composed with the rotation about the axis
+/// that aligns the points best in the least-squares sense (closed form; exact for poses that
+/// differ by a revolution, and cheap enough for the solver's hypothesis pairs). `a` and `b` are
 /// `cam_from_object` (any common target frame). Plain ADD when there are no symmetries.
 /// Throws g6d::Error when `model_points_m` is empty.
 double SymmetricPoseDistance(const MeshSymmetries& symmetries,

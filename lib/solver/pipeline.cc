@@ -4,7 +4,6 @@
 #include <cmath>
 #include <exception>
 #include <memory>
-#include <limits>
 #include <numeric>
 #include <sstream>
 
@@ -129,8 +128,8 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
     return "the mask has " + std::to_string(valid_depth) + " pixels with valid depth (need " +
            std::to_string(options.min_valid_depth_pixels) + ")";
   }
-  // Observed cloud Y, deterministic image-space subsampling, with a normal per point from
-  // its depth neighbours (for point-to-plane ICP; zero where a neighbour is missing, off the
+  // Observed cloud Y, deterministic image-space subsampling; for point-to-plane ICP also a
+  // normal per point from its depth neighbours (zero where a neighbour is missing, off the
   // mask or across a depth step).
   const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(valid_depth) / options.max_observed_points))));
   const int reach = kNormalReachPx;
@@ -148,6 +147,7 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
       if (!mask.at<uint8_t>(v, u) || !(z > 0.0f)) continue;
       const Eigen::Vector3d point = frame.camera.Backproject(PixelCentre(u, v), z);
       observed.push_back(point);
+      if (!options.icp.point_to_plane) continue;
       Eigen::Vector3d left, right, up, down, normal = Eigen::Vector3d::Zero();
       if (neighbour(u - reach, v, z, &left) && neighbour(u + reach, v, z, &right) && neighbour(u, v - reach, z, &up) &&
           neighbour(u, v + reach, z, &down)) {
@@ -159,7 +159,9 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
       normals.push_back(normal);
     }
   }
-  observation->observed = std::make_unique<PointCloudIndex>(std::move(observed), std::move(normals));
+  observation->observed = options.icp.point_to_plane
+                              ? std::make_unique<PointCloudIndex>(std::move(observed), std::move(normals))
+                              : std::make_unique<PointCloudIndex>(std::move(observed));
   observation->selection_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.selection_grid);
   observation->refine_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.refine_grid);
   return "";
@@ -194,14 +196,22 @@ std::vector<Eigen::Vector3d> VisibleModelPoints(const Mesh& mesh, const Evaluati
   return points;
 }
 
-// The symmetries under which two poses are the same answer: those the user gave (BOP
-// models_info.json), and the mesh's geometric ones unless the model is coloured. A printed
-// box's 180-degree flips have the same shape but not the same print: they must stay apart
-// (as hypotheses and as finalists) so that appearance can choose between them.
-MeshSymmetries AnswerSymmetries(const TemplateBank& bank) {
-  MeshSymmetries symmetries;
-  if (bank.appearance.Empty()) symmetries = bank.geometric_symmetries;
+// The symmetries of the shape: the mesh's geometric ones and those the user gave (BOP
+// models_info.json) as discrete ones.
+MeshSymmetries ShapeSymmetries(const TemplateBank& bank) {
+  MeshSymmetries symmetries = bank.geometric_symmetries;
   for (const Eigen::Isometry3d& g : bank.symmetries) symmetries.discrete.push_back(g);
+  return symmetries;
+}
+
+// The symmetries under which two poses are the same answer: the shape's, except the
+// geometric ones of a coloured model. A printed box's 180-degree flips have the same shape
+// but not the same print: they must stay apart (as hypotheses and as finalists) so that
+// appearance can choose between them.
+MeshSymmetries AnswerSymmetries(const TemplateBank& bank) {
+  if (bank.appearance.Empty()) return ShapeSymmetries(bank);
+  MeshSymmetries symmetries;
+  symmetries.discrete = bank.symmetries;
   return symmetries;
 }
 
@@ -211,37 +221,6 @@ std::vector<Eigen::Vector3d> DistancePoints(const Mesh& mesh, size_t count) {
   const size_t step = std::max<size_t>(1, mesh.vertices.size() / count);
   for (size_t i = 0; i < mesh.vertices.size(); i += step) points.push_back(mesh.vertices[i].cast<double>());
   return points;
-}
-
-// ADD between two poses modulo the symmetries, metres: the smallest mean distance of the
-// points under `a` and under b * g over g in {identity, discrete}; with a revolution the
-// rotation about the axis is optimal in closed form (2D Procrustes about the axis), so this
-// stays cheap enough to compare every pair of hypotheses.
-double PoseDistance(const MeshSymmetries& symmetries, const std::vector<Eigen::Vector3d>& points,
-                    const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  double best = std::numeric_limits<double>::infinity();
-  const Eigen::Vector3d& n = symmetries.axis;
-  const Eigen::Vector3d& c = symmetries.point;
-  auto one = [&](const Eigen::Isometry3d& b_g) {
-    const Eigen::Isometry3d relative = b_g.inverse() * a;  // object frame of b_g
-    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
-    if (symmetries.revolution) {
-      double cos_sum = 0.0, sin_sum = 0.0;
-      for (const Eigen::Vector3d& x : points) {
-        const Eigen::Vector3d p = relative * x - c, q = x - c;
-        const Eigen::Vector3d p_perp = p - p.dot(n) * n, q_perp = q - q.dot(n) * n;
-        cos_sum += q_perp.dot(p_perp);
-        sin_sum += n.dot(q_perp.cross(p_perp));
-      }
-      rotation = Eigen::AngleAxisd(std::atan2(sin_sum, cos_sum), n).toRotationMatrix();
-    }
-    double sum = 0.0;
-    for (const Eigen::Vector3d& x : points) sum += ((relative * x) - (c + rotation * (x - c))).norm();
-    best = std::min(best, sum / std::max<size_t>(1, points.size()));
-  };
-  one(b);
-  for (const Eigen::Isometry3d& g : symmetries.discrete) one(b * g);
-  return best;
 }
 
 struct Finalist {
@@ -263,7 +242,7 @@ void ResolveFinalists(const SolverOptions& options, const TemplateBank& bank, co
   for (const Finalist& f : finalists) {
     bool is_new = true;
     for (size_t k = 0; k < distinct.size() && is_new; ++k) {
-      is_new = PoseDistance(symmetries, distance_points, f.cam_from_object, distinct[k].cam_from_object) > same_m;
+      is_new = SymmetricPoseDistance(symmetries, distance_points, f.cam_from_object, distinct[k].cam_from_object) > same_m;
     }
     if (is_new) distinct.push_back(f);
   }
@@ -293,11 +272,10 @@ void ResolveFinalists(const SolverOptions& options, const TemplateBank& bank, co
   // Runner-up: the best distinct finalist by S that is not the answer moved by a
   // symmetry of the shape (a printed box's flip that appearance cannot tell apart is the
   // same shape: a symmetry, reported at build time, not an ambiguity).
-  MeshSymmetries shape_symmetries = bank.geometric_symmetries;
-  for (const Eigen::Isometry3d& g : bank.symmetries) shape_symmetries.discrete.push_back(g);
+  const MeshSymmetries shape_symmetries = ShapeSymmetries(bank);
   for (size_t k = 0; k < distinct.size(); ++k) {
     if (k == chosen) continue;
-    if (PoseDistance(shape_symmetries, distance_points, distinct[k].cam_from_object, distinct[chosen].cam_from_object) <=
+    if (SymmetricPoseDistance(shape_symmetries, distance_points, distinct[k].cam_from_object, distinct[chosen].cam_from_object) <=
         same_m) {
       continue;
     }
@@ -472,7 +450,7 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
       const Eigen::Isometry3d& pose = hypotheses[static_cast<size_t>(i)];
       bool distinct = true;
       for (size_t k = 0; k < kept.size() && distinct; ++k) {
-        distinct = PoseDistance(symmetries, distance_points, pose, kept[k]) > distinct_m;
+        distinct = SymmetricPoseDistance(symmetries, distance_points, pose, kept[k]) > distinct_m;
       }
       if (!distinct) continue;
       kept.push_back(pose);
