@@ -84,11 +84,29 @@ int main(int argc, char** argv) {
   app.add_flag("--reject-border-masks", reject_border, "refuse masks that touch the image border (truncated objects)");
   app.add_option("--adds-ids", adds_ids, "object ids scored with ADD-S besides models_info's symmetric ones (e.g. 1 for the YCB-V can)")
       ->delimiter(',');
-  bool no_appearance = false, no_occlusion = false, no_dedupe = false, point_to_plane = false;
-  app.add_flag("--icp-point-to-plane", point_to_plane, "point-to-plane ICP on the observed normals instead of the paper's point-to-point");
+  bool no_appearance = false, no_occlusion = false, no_dedupe = false, point_to_point = false;
+  app.add_flag("--icp-point-to-point", point_to_point, "the paper's point-to-point ICP instead of point-to-plane along the rendered model's normals (ablation)");
+  int icp_point_iterations = -1;
+  app.add_option("--icp-point-iterations", icp_point_iterations, "point-to-plane ICP: the first N iterations are point-to-point (default: solver's)");
   app.add_flag("--no-appearance", no_appearance, "no appearance tie-break among finalists (ablation)");
   app.add_flag("--no-occlusion", no_occlusion, "no occlusion reasoning in the scores, ICP and MHPO (ablation)");
   app.add_flag("--no-dedupe", no_dedupe, "keep hypotheses equal modulo symmetry as separate K slots (ablation)");
+  // Speed schedule (issue 13), each switchable for the ablation table.
+  bool no_merge = false, no_cull = false, full_selection_mesh = false, icp_source_in_mask = false;
+  int icp_probe = -1, icp_finish = 0;
+  double pnp_min_quality = -1.0;
+  app.add_flag("--no-merge-pnp", no_merge, "score every PnP pose in observable selection, duplicates dropped after ranking (ablation)");
+  app.add_flag("--no-cull", no_cull, "rasterize back faces of closed meshes too (ablation)");
+  app.add_flag("--full-selection-mesh", full_selection_mesh, "observable selection renders the online mesh, not the coarse one (ablation)");
+  app.add_flag("--icp-source-in-mask", icp_source_in_mask, "ICP source: only rendered points inside the observed mask");
+  app.add_option("--icp-probe", icp_probe, "ICP probing: N coarse iterations for every hypothesis, then only the best by S go on (0 = off; default: solver's)");
+  int icp_coarse = -1;
+  int icp_stall = -1, mhpo_min_rounds = -1;
+  app.add_option("--mhpo-min-rounds", mhpo_min_rounds, "MHPO rounds before early stopping may end it (default: solver's)");
+  app.add_option("--icp-stall", icp_stall, "ICP stops when the trimmed RMSE reached no new minimum for N iterations (0 = off; default: solver's)");
+  app.add_option("--icp-coarse-points", icp_coarse, "ICP coarse-to-fine: converge on this many source points first (0 = off; default: solver's)");
+  app.add_option("--icp-finish", icp_finish, "hypotheses ICP finishes after the probe (default: solver's)");
+  app.add_option("--pnp-min-quality", pnp_min_quality, "PnP only on sets with Q_j >= this fraction of Q_1 (default: solver's)");
   app.add_flag("--score-gt", score_gt,
                "also score the GT pose (S, 1 - J, depth term) beside S_A per instance: a miss with S(GT) < S_A is a "
                "search failure, with S(GT) >= S_A a score failure (records CSV and a summary)");
@@ -114,7 +132,18 @@ int main(int argc, char** argv) {
     if (no_appearance) options.appearance_tiebreak = false;
     if (no_occlusion) options.score.occlusion_margin_m = 0.0;
     if (no_dedupe) options.distinct_pose_fraction = 0.0;
-    if (point_to_plane) options.icp.point_to_plane = true;
+    if (point_to_point) options.icp.point_to_plane = false;
+    if (icp_point_iterations >= 0) options.icp.point_to_point_iterations = icp_point_iterations;
+    if (no_merge) options.merge_pnp_poses = false;
+    if (no_cull) options.cull_backfaces = false;
+    if (full_selection_mesh) options.coarse_selection_mesh = false;
+    if (icp_source_in_mask) options.icp_source_in_mask = true;
+    if (icp_probe >= 0) options.icp_probe_iterations = icp_probe;
+    if (icp_finish > 0) options.icp_finish_hypotheses = icp_finish;
+    if (icp_coarse >= 0) options.icp_coarse_points = icp_coarse;
+    if (icp_stall >= 0) options.icp.stall_window = icp_stall;
+    if (mhpo_min_rounds >= 0) options.mhpo.min_rounds = mhpo_min_rounds;
+    if (pnp_min_quality >= 0.0) options.pnp_min_quality_ratio = pnp_min_quality;
     options.post_refine = post_refine;
     if (icp_min_step > 0) options.icp.min_step_m = icp_min_step;
     if (icp_iterations > 0) options.icp.max_iterations = icp_iterations;
@@ -132,7 +161,8 @@ int main(int argc, char** argv) {
       std::fprintf(records,
                    "scene_id,im_id,obj_id,gt_idx,success,score,confidence,iou,depth_residual,error_d,correct,total_ms,"
                    "truncated,ambiguous,runner_up_gap,appearance_valid,appearance_agreement,appearance_changed,"
-                   "gt_score,gt_iou,gt_depth_residual,gt_occluded_px\n");
+                   "gt_score,gt_iou,gt_depth_residual,gt_occluded_px,sets_tried,pnp_hypotheses,pnp_merged,kept,"
+                   "icp_iterations,answer_set_rank,answer_quality_ratio\n");
     }
     int seen = 0;
     g6d::ThreadPool pool(std::max(1, threads));
@@ -141,6 +171,7 @@ int main(int argc, char** argv) {
     std::map<int, g6d::BopScene> scenes;
     std::map<int, Tally> tallies;
     std::map<std::string, std::vector<double>> times;
+    std::map<std::string, std::vector<double>> counts;
     std::vector<g6d::BopEstimate> estimates;
     std::map<std::pair<int, int>, double> image_time_s;
     int done = 0, cut_short = 0;
@@ -237,22 +268,22 @@ int main(int argc, char** argv) {
                        result.has_runner_up ? result.runner_up_score - result.score : -1.0,
                        result.appearance_valid ? 1 : 0, result.appearance_agreement, s.appearance_changed ? 1 : 0);
           if (has_gt_score) {
-            std::fprintf(records, "%.6f,%.6f,%.6f,%d\n", gt_score.s, gt_score.iou, gt_score.depth_residual,
+            std::fprintf(records, "%.6f,%.6f,%.6f,%d,", gt_score.s, gt_score.iou, gt_score.depth_residual,
                          gt_score.occluded_pixels);
           } else {
-            std::fprintf(records, ",,,\n");
+            std::fprintf(records, ",,,,");
           }
+          std::fprintf(records, "%d,%d,%d,%d,%d,%d,%.4f\n", s.sets_tried, s.pnp_hypotheses, s.pnp_merged, s.kept_hypotheses,
+                       s.icp_iterations, s.answer_set_rank, s.answer_quality_ratio);
         }
         image_time_s[{target.scene_id, target.im_id}] += s.total_ms / 1000.0;
-        times["features"].push_back(s.features_ms);
-        times["match"].push_back(s.match_ms);
-        times["pnp"].push_back(s.pnp_ms);
-        times["observable"].push_back(s.observable_ms);
-        times["icp"].push_back(s.icp_ms);
-        times["mhpo"].push_back(s.mhpo_ms);
-        times["post_refine"].push_back(s.post_refine_ms);
-        times["finalists"].push_back(s.finalists_ms);
-        times["total"].push_back(s.total_ms);
+        for (const g6d::StageTime& stage : g6d::StageTimes(s)) times[stage.name].push_back(stage.ms);
+        counts["sets tried"].push_back(s.sets_tried);
+        counts["PnP poses"].push_back(s.pnp_hypotheses);
+        counts["distinct PnP poses"].push_back(s.pnp_hypotheses - s.pnp_merged);
+        counts["kept (K)"].push_back(s.kept_hypotheses);
+        counts["ICP iterations"].push_back(s.icp_iterations);
+        counts["ICP runs at the iteration limit"].push_back(s.icp_runs_at_max);
         ++done;
         cut_short += result.cut_short ? 1 : 0;
         std::fprintf(stderr, "[%d] scene %d im %d obj %d: %s%s%s S %.3f ADD%s %.1f mm (%.2f d) %.0f ms", done,
@@ -316,8 +347,12 @@ int main(int argc, char** argv) {
     std::printf(" |\n\npeak resident memory: %.0f MB\n", usage.ru_maxrss / 1024.0);
     if (budget_ms > 0.0) std::printf("budget %.0f ms per instance: %d of %d answers cut short\n", budget_ms, cut_short, done);
     std::printf("\nlatency per instance (ms)\n| stage | p50 | p95 |\n|---|---|---|\n");
-    for (const char* stage : {"features", "match", "pnp", "observable", "icp", "mhpo", "post_refine", "finalists", "total"}) {
-      std::printf("| %s | %.1f | %.1f |\n", stage, Percentile(times[stage], 0.5), Percentile(times[stage], 0.95));
+    for (const g6d::StageTime& stage : g6d::StageTimes(g6d::StageReport())) {
+      std::printf("| %s | %.1f | %.1f |\n", stage.name, Percentile(times[stage.name], 0.5), Percentile(times[stage.name], 0.95));
+    }
+    std::printf("\nwork per instance\n| count | p50 | p95 |\n|---|---|---|\n");
+    for (const char* count : {"sets tried", "PnP poses", "distinct PnP poses", "kept (K)", "ICP iterations", "ICP runs at the iteration limit"}) {
+      std::printf("| %s | %.0f | %.0f |\n", count, Percentile(counts[count], 0.5), Percentile(counts[count], 0.95));
     }
     return 0;
   } catch (const std::exception& e) {

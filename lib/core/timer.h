@@ -48,6 +48,12 @@ class Deadline {
     return (stop_ != nullptr && stop_->load(std::memory_order_relaxed)) ||
            (budget_ms_ > 0.0 && watch_.ElapsedMs() >= budget_ms_);
   }
+  /// True once `fraction` of the budget is used up or a stop was requested: a stage that
+  /// should leave the rest of the budget to later stages ends at its share.
+  bool ExpiredAt(double fraction) const {
+    return (stop_ != nullptr && stop_->load(std::memory_order_relaxed)) ||
+           (budget_ms_ > 0.0 && watch_.ElapsedMs() >= fraction * budget_ms_);
+  }
   /// True when it expired because of the stop request (not the budget).
   bool Stopped() const { return stop_ != nullptr && stop_->load(std::memory_order_relaxed); }
   double ElapsedMs() const { return watch_.ElapsedMs(); }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <limits>
 #include <sstream>
 
 #include <Eigen/Cholesky>
@@ -67,6 +68,9 @@ std::string IcpOptions::Check() const {
   else if (!(r0_m > 0.0)) out << "IcpOptions.r0_m must be > 0 (got " << r0_m << ")";
   else if (max_iterations < 1) out << "IcpOptions.max_iterations must be >= 1 (got " << max_iterations << ")";
   else if (min_correspondences < 3) out << "IcpOptions.min_correspondences must be >= 3 (got " << min_correspondences << ")";
+  else if (!(min_rmse_decrease >= 0.0 && min_rmse_decrease < 1.0)) out << "IcpOptions.min_rmse_decrease must be in [0, 1) (got " << min_rmse_decrease << ")";
+  else if (stall_window < 0) out << "IcpOptions.stall_window must be >= 0 (got " << stall_window << ")";
+  else if (point_to_point_iterations < 0) out << "IcpOptions.point_to_point_iterations must be >= 0 (got " << point_to_point_iterations << ")";
   return out.str();
 }
 
@@ -95,11 +99,16 @@ Eigen::Isometry3d AlignRigid(const std::vector<Eigen::Vector3d>& source,
 
 namespace {
 
-// One linearized point-to-plane step: the small rotation w and translation t minimizing
-// sum ((p + w x p + t - q) . n)^2 over the pairs with a normal; false when fewer than
-// `min_pairs` have one or the system is degenerate (then the caller uses Kabsch).
+// One linearized point-to-plane step: the small rotation w (about the pairs' source
+// centroid c, which keeps the 6x6 system well conditioned for an object a metre away) and
+// translation t minimizing sum ((c + (1 + [w]x)(p - c) + t - q) . n)^2 over the pairs with a
+// normal; false when fewer than `min_pairs` have one or the system is degenerate (then
+// the caller uses Kabsch).
 bool PointToPlaneUpdate(const std::vector<Eigen::Vector3d>& source, const std::vector<Eigen::Vector3d>& target,
                         const std::vector<Eigen::Vector3d>& normals, int min_pairs, Eigen::Isometry3d* update) {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : source) centre += p;
+  centre /= static_cast<double>(std::max<size_t>(1, source.size()));
   Eigen::Matrix<double, 6, 6> normal_matrix = Eigen::Matrix<double, 6, 6>::Zero();
   Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
   int pairs = 0;
@@ -107,7 +116,7 @@ bool PointToPlaneUpdate(const std::vector<Eigen::Vector3d>& source, const std::v
     const Eigen::Vector3d& n = normals[i];
     if (n.squaredNorm() < 0.5) continue;  // no normal known
     Eigen::Matrix<double, 6, 1> row;
-    row << source[i].cross(n), n;
+    row << (source[i] - centre).cross(n), n;
     normal_matrix += row * row.transpose();
     rhs += row * (target[i] - source[i]).dot(n);
     ++pairs;
@@ -118,9 +127,11 @@ bool PointToPlaneUpdate(const std::vector<Eigen::Vector3d>& source, const std::v
   const Eigen::Matrix<double, 6, 1> x = solver.solve(rhs);
   if (!x.allFinite()) return false;
   const Eigen::Vector3d w = x.head<3>();
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  if (w.norm() > 1e-12) rotation = Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix();
   *update = Eigen::Isometry3d::Identity();
-  if (w.norm() > 1e-12) update->linear() = Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix();
-  update->translation() = x.tail<3>();
+  update->linear() = rotation;
+  update->translation() = centre - rotation * centre + x.tail<3>();
   return true;
 }
 
@@ -128,8 +139,13 @@ bool PointToPlaneUpdate(const std::vector<Eigen::Vector3d>& source, const std::v
 
 void RefineByTrimmedIcp(const IcpOptions& options, const std::vector<Eigen::Vector3d>& source_in_object,
                         const PointCloudIndex& target, double diameter_m,
-                        Eigen::Isometry3d* cam_from_object, IcpReport* report) {
+                        Eigen::Isometry3d* cam_from_object, IcpReport* report,
+                        const std::vector<Eigen::Vector3d>* source_normals_in_object) {
   *report = IcpReport();
+  if (source_normals_in_object != nullptr && source_normals_in_object->size() != source_in_object.size()) {
+    G6D_THROW("RefineByTrimmedIcp: " << source_normals_in_object->size() << " source normals for "
+                                     << source_in_object.size() << " source points");
+  }
   const std::string bad = options.Check();
   if (!bad.empty()) {
     report->message = bad;
@@ -150,7 +166,10 @@ void RefineByTrimmedIcp(const IcpOptions& options, const std::vector<Eigen::Vect
   std::vector<double> squared(n);
   std::vector<size_t> order(n);
   std::vector<Eigen::Vector3d> kept_source, kept_target, kept_normal;
-  const bool use_plane = options.point_to_plane && target.normals().size() == target.points().size();
+  double best_rmse = std::numeric_limits<double>::infinity();
+  int best_iteration = 0;
+  const bool source_planes = options.point_to_plane && source_normals_in_object != nullptr;
+  const bool use_plane = source_planes || (options.point_to_plane && target.normals().size() == target.points().size());
   for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
     for (size_t i = 0; i < n; ++i) moved[i] = pose * source_in_object[i];
     target.NearestAll(moved, &nearest, &squared);
@@ -168,7 +187,8 @@ void RefineByTrimmedIcp(const IcpOptions& options, const std::vector<Eigen::Vect
       if (nearest[i] < 0 || squared[i] >= r_max_squared) break;
       kept_source.push_back(moved[i]);
       kept_target.push_back(target.points()[static_cast<size_t>(nearest[i])]);
-      if (use_plane) kept_normal.push_back(target.normals()[static_cast<size_t>(nearest[i])]);
+      if (source_planes) kept_normal.push_back(pose.linear() * (*source_normals_in_object)[i]);
+      else if (use_plane) kept_normal.push_back(target.normals()[static_cast<size_t>(nearest[i])]);
       sum_squared += squared[i];
     }
     report->iterations = iteration + 1;
@@ -178,8 +198,17 @@ void RefineByTrimmedIcp(const IcpOptions& options, const std::vector<Eigen::Vect
       return;
     }
     report->rmse_m = std::sqrt(sum_squared / kept_source.size());
+    // Stalled (e.g. a limit cycle of two correspondence sets): no new lowest RMSE for
+    // stall_window iterations.
+    if (report->rmse_m < best_rmse * (1.0 - options.min_rmse_decrease)) {
+      best_rmse = report->rmse_m;
+      best_iteration = iteration;
+    } else if (options.stall_window > 0 && iteration - best_iteration >= options.stall_window) {
+      break;
+    }
     Eigen::Isometry3d update = Eigen::Isometry3d::Identity();
-    if (!(use_plane && PointToPlaneUpdate(kept_source, kept_target, kept_normal, options.min_correspondences, &update))) {
+    const bool plane_step = use_plane && iteration >= options.point_to_point_iterations;
+    if (!(plane_step && PointToPlaneUpdate(kept_source, kept_target, kept_normal, options.min_correspondences, &update))) {
       update = AlignRigid(kept_source, kept_target);
     }
     pose = update * pose;

@@ -50,13 +50,24 @@ struct IcpOptions {
   double r0_m = 0.01;            ///< r_0: minimum residual cutoff, metres
   int max_iterations = 60;       ///< iterations at most (point-to-point converges slowly along smooth surfaces)
   double min_step_m = 1e-5;      ///< stop when the update moves points less than this, metres (10 µm)
+  /// Also stop when the trimmed RMSE has not reached a new lowest value (lower by more
+  /// than the fraction `min_rmse_decrease`) for `stall_window` iterations: the fit no
+  /// longer improves, e.g. the pose alternates between two correspondence sets (a limit
+  /// cycle the step size never ends). 0 = off.
+  int stall_window = 0;
+  double min_rmse_decrease = 0.0;
   int min_correspondences = 12;  ///< fewer kept correspondences = failure
-  /// Minimize the point-to-plane distance along the target's normals (linearized, one 6x6
-  /// solve per iteration) instead of the paper's point-to-point Kabsch: it slides along
-  /// smooth surfaces in a few iterations where point-to-point needs tens. Needs target
-  /// normals (PointCloudIndex with normals); pairs whose target has none are left out of
-  /// the update. False, or no normals: point-to-point.
+  /// Minimize the point-to-plane distance (linearized, one 6x6 solve per iteration)
+  /// instead of the paper's point-to-point Kabsch: it slides along smooth surfaces in a
+  /// few iterations where point-to-point needs tens. The planes are the source's (the
+  /// model's normals, when RefineByTrimmedIcp gets them), else the target's (a
+  /// PointCloudIndex with normals); pairs with no normal are left out of the update.
+  /// False, or no normals at all: point-to-point.
   bool point_to_plane = false;
+  /// With point_to_plane, the first this many iterations are point-to-point all the same:
+  /// far from the optimum, nearest neighbours are poor matches and Kabsch moves more
+  /// robustly; close to it, the plane metric converges in a few steps.
+  int point_to_point_iterations = 0;
 
   std::string Check() const;
 };
@@ -73,9 +84,13 @@ struct IcpReport {
 /// Refines *cam_from_object so that `source_in_object` (object frame, metres) matches the
 /// observed points indexed by `target` (camera frame, metres). On failure the pose is
 /// left unchanged.
+/// `source_normals_in_object` (optional): a unit normal per source point (zero where
+/// unknown), for point-to-plane along the model's surface. Throws g6d::Error when its size
+/// differs from the source's.
 void RefineByTrimmedIcp(const IcpOptions& options, const std::vector<Eigen::Vector3d>& source_in_object,
                         const PointCloudIndex& target, double diameter_m,
-                        Eigen::Isometry3d* cam_from_object, IcpReport* report);
+                        Eigen::Isometry3d* cam_from_object, IcpReport* report,
+                        const std::vector<Eigen::Vector3d>* source_normals_in_object = nullptr);
 
 /// Least-squares rigid transform (no scale) mapping `source[i]` onto `target[i]`
 /// (Kabsch / Umeyama). Requires at least 3 non-collinear pairs.

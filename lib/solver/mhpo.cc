@@ -24,6 +24,7 @@ std::string MhpoOptions::Check() const {
   else if (lm_iterations < 1) out << "MhpoOptions.lm_iterations must be >= 1 (got " << lm_iterations << ")";
   else if (max_contour_points < 1 || max_depth_points < 0) out << "MhpoOptions.max_contour_points must be >= 1 and max_depth_points >= 0";
   else if (patience < 1) out << "MhpoOptions.patience must be >= 1 (got " << patience << ")";
+  else if (min_rounds < 0) out << "MhpoOptions.min_rounds must be >= 0 (got " << min_rounds << ")";
   return out.str();
 }
 
@@ -144,6 +145,7 @@ void RunRound(const MhpoOptions& options, const ScoreOptions& score_options, con
   const Camera& camera = grid.camera;
   RasterOptions raster_options;
   raster_options.want_face_id = false;
+  raster_options.cull_backfaces = score_options.cull_backfaces;
   Rasterize(mesh, camera, state->current, raster_options, &state->raster);
   const cv::Mat& rendered = state->raster.depth;
 
@@ -298,7 +300,7 @@ void RefineByMhpo(const MhpoOptions& options, const ScoreOptions& score_options,
                   const MhpoTarget& target, const Mesh& mesh,
                   const std::vector<Eigen::Isometry3d>& hypotheses, Executor* executor,
                   Eigen::Isometry3d* best_cam_from_object, MhpoReport* report,
-                  const Deadline* deadline) {
+                  const Deadline* deadline, const std::vector<PoseScore>* initial_scores) {
   *report = MhpoReport();
   std::string bad = options.Check();
   if (bad.empty()) bad = score_options.Check();
@@ -310,6 +312,7 @@ void RefineByMhpo(const MhpoOptions& options, const ScoreOptions& score_options,
     report->message = "no hypotheses to refine";
     return;
   }
+  G6D_CHECK(initial_scores == nullptr || initial_scores->size() == hypotheses.size());
   G6D_CHECK(target.grid != nullptr);
   const TargetInterpolators interpolators(target);
   const int n = static_cast<int>(hypotheses.size());
@@ -317,7 +320,8 @@ void RefineByMhpo(const MhpoOptions& options, const ScoreOptions& score_options,
   executor->ParallelFor(n, [&](int k) {
     HypothesisState& state = states[static_cast<size_t>(k)];
     state.current = state.best = hypotheses[static_cast<size_t>(k)];
-    state.best_score = ScorePose(*target.grid, mesh, state.current, target.z_m, score_options, &state.raster);
+    state.best_score = initial_scores != nullptr ? (*initial_scores)[static_cast<size_t>(k)]
+                                                 : ScorePose(*target.grid, mesh, state.current, target.z_m, score_options, &state.raster);
     state.report.initial_s = state.best_score.s;
   });
   auto global_best = [&]() {
@@ -329,7 +333,8 @@ void RefineByMhpo(const MhpoOptions& options, const ScoreOptions& score_options,
   };
   const bool early_stop_enabled = options.early_stop_score > 0.0;
   for (int round = 0; round < options.max_rounds; ++round) {
-    if (early_stop_enabled && states[static_cast<size_t>(global_best())].best_score.s < options.early_stop_score) {
+    if (early_stop_enabled && round >= options.min_rounds &&
+        states[static_cast<size_t>(global_best())].best_score.s < options.early_stop_score) {
       report->early_stopped = true;
       break;
     }

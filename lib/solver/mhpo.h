@@ -37,6 +37,10 @@ struct MhpoOptions {
   /// Stop all hypotheses once the best S falls below this (progressive stopping);
   /// <= 0 disables it.
   double early_stop_score = 0.06;
+  /// Early stopping applies only after this many rounds: every hypothesis is refined at
+  /// least this often, so that a competitor of T_A (a flip that appearance must judge) is
+  /// compared in its refined state, not as ICP left it.
+  int min_rounds = 1;
   int patience = 2;             ///< stop a hypothesis after this many rounds without a lower S
 
   std::string Check() const;
@@ -82,12 +86,15 @@ struct MhpoReport {
 /// of S (eq. 17) in *best_cam_from_object. Hypotheses fan out over `executor`, in
 /// lock-step rounds, so early stopping and the result do not depend on the thread count.
 /// With a `deadline`, no round starts after it expired (report->cut_short; the result is
-/// the best state reached).
+/// the best state reached). `initial_scores` (optional, one per hypothesis) are the
+/// hypotheses' scores on target.grid with `score_options` when the caller has them
+/// already (they are not recomputed).
 void RefineByMhpo(const MhpoOptions& options, const ScoreOptions& score_options,
                   const MhpoTarget& target, const Mesh& mesh,
                   const std::vector<Eigen::Isometry3d>& hypotheses, Executor* executor,
                   Eigen::Isometry3d* best_cam_from_object, MhpoReport* report,
-                  const Deadline* deadline = nullptr);
+                  const Deadline* deadline = nullptr,
+                  const std::vector<PoseScore>* initial_scores = nullptr);
 
 /// Residual blocks exposed for tests (Jacobian checks): a silhouette residual of one
 /// contour point and a depth residual of one surface point, under the increment

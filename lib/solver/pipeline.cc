@@ -32,6 +32,10 @@ std::string SolverOptions::Check() const {
   else if (max_observed_points < 10) out << "SolverOptions.max_observed_points must be >= 10 (got " << max_observed_points << ")";
   else if (max_source_points < 10) out << "SolverOptions.max_source_points must be >= 10 (got " << max_source_points << ")";
   else if (min_valid_depth_pixels < 3) out << "SolverOptions.min_valid_depth_pixels must be >= 3 (got " << min_valid_depth_pixels << ")";
+  else if (icp_coarse_points < 0) out << "SolverOptions.icp_coarse_points must be >= 0 (got " << icp_coarse_points << ")";
+  else if (icp_probe_iterations < 0) out << "SolverOptions.icp_probe_iterations must be >= 0 (got " << icp_probe_iterations << ")";
+  else if (icp_finish_hypotheses < 1) out << "SolverOptions.icp_finish_hypotheses must be >= 1 (got " << icp_finish_hypotheses << ")";
+  else if (!(pnp_min_quality_ratio >= 0.0 && pnp_min_quality_ratio <= 1.0)) out << "SolverOptions.pnp_min_quality_ratio must be in [0, 1] (got " << pnp_min_quality_ratio << ")";
   else if (!(distinct_pose_fraction >= 0.0 && distinct_pose_fraction < 1.0)) out << "SolverOptions.distinct_pose_fraction must be in [0, 1) (got " << distinct_pose_fraction << ")";
   else if (!(ambiguity_distance_fraction > 0.0 && ambiguity_distance_fraction < 10.0)) out << "SolverOptions.ambiguity_distance_fraction must be in (0, 10) (got " << ambiguity_distance_fraction << ")";
   else if (!(ambiguity_margin >= 0.0 && ambiguity_margin < 2.0)) out << "SolverOptions.ambiguity_margin must be in [0, 2) (got " << ambiguity_margin << ")";
@@ -53,6 +57,13 @@ const char* TerminationName(Termination termination) {
     case Termination::kNoHypothesis: return "no_hypothesis";
   }
   return "unknown";
+}
+
+std::vector<StageTime> StageTimes(const StageReport& s) {
+  return {{"prepare", s.prepare_ms},     {"features", s.features_ms},       {"match", s.match_ms},
+          {"pnp", s.pnp_ms},             {"observable", s.observable_ms},   {"icp", s.icp_ms},
+          {"mhpo", s.mhpo_ms},           {"post_refine", s.post_refine_ms}, {"finalists", s.finalists_ms},
+          {"total", s.total_ms}};
 }
 
 double ConfidenceFromScore(const SolverOptions& options, double score, bool ambiguous) {
@@ -90,11 +101,6 @@ bool TouchesBorder(const cv::Rect& box, const cv::Size& size) {
   return box.x == 0 || box.y == 0 || box.x + box.width == size.width || box.y + box.height == size.height;
 }
 
-// Observed normals: from the depth kNormalReachPx pixels to each side, all within
-// kNormalMaxStepM of the centre depth (a larger step is an edge or a flying pixel).
-constexpr int kNormalReachPx = 2;
-constexpr float kNormalMaxStepM = 0.02f;
-
 // The observed data of one instance, shared read-only by every hypothesis.
 struct Observation {
   cv::Mat mask;              // CV_8U 0/255, frame size
@@ -128,40 +134,17 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
     return "the mask has " + std::to_string(valid_depth) + " pixels with valid depth (need " +
            std::to_string(options.min_valid_depth_pixels) + ")";
   }
-  // Observed cloud Y, deterministic image-space subsampling; for point-to-plane ICP also a
-  // normal per point from its depth neighbours (zero where a neighbour is missing, off the
-  // mask or across a depth step).
+  // Observed cloud Y, deterministic image-space subsampling.
   const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(valid_depth) / options.max_observed_points))));
-  const int reach = kNormalReachPx;
-  auto neighbour = [&](int u, int v, float z, Eigen::Vector3d* point) {
-    if (u < 0 || v < 0 || u >= depth.cols || v >= depth.rows || !mask.at<uint8_t>(v, u)) return false;
-    const float zn = depth.at<float>(v, u);
-    if (!(zn > 0.0f) || std::abs(zn - z) > kNormalMaxStepM) return false;
-    *point = frame.camera.Backproject(PixelCentre(u, v), zn);
-    return true;
-  };
-  std::vector<Eigen::Vector3d> observed, normals;
+  std::vector<Eigen::Vector3d> observed;
   for (int v = box.y + stride / 2; v < box.y + box.height; v += stride) {
     for (int u = box.x + stride / 2; u < box.x + box.width; u += stride) {
       const float z = depth.at<float>(v, u);
       if (!mask.at<uint8_t>(v, u) || !(z > 0.0f)) continue;
-      const Eigen::Vector3d point = frame.camera.Backproject(PixelCentre(u, v), z);
-      observed.push_back(point);
-      if (!options.icp.point_to_plane) continue;
-      Eigen::Vector3d left, right, up, down, normal = Eigen::Vector3d::Zero();
-      if (neighbour(u - reach, v, z, &left) && neighbour(u + reach, v, z, &right) && neighbour(u, v - reach, z, &up) &&
-          neighbour(u, v + reach, z, &down)) {
-        normal = (right - left).cross(down - up);
-        const double length = normal.norm();
-        normal = length > 0.0 ? Eigen::Vector3d(normal / length) : Eigen::Vector3d::Zero();
-        if (normal.dot(point) > 0.0) normal = -normal;  // towards the camera
-      }
-      normals.push_back(normal);
+      observed.push_back(frame.camera.Backproject(PixelCentre(u, v), z));
     }
   }
-  observation->observed = options.icp.point_to_plane
-                              ? std::make_unique<PointCloudIndex>(std::move(observed), std::move(normals))
-                              : std::make_unique<PointCloudIndex>(std::move(observed));
+  observation->observed = std::make_unique<PointCloudIndex>(std::move(observed));
   observation->selection_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.selection_grid);
   observation->refine_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.refine_grid);
   return "";
@@ -169,28 +152,39 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
 
 // Visible model points of a rendering on `grid` at `cam_from_object`, in the object frame:
 // the ICP source. Pixels hidden behind an unmasked occluder (outside the mask, observed
-// depth in front) are left out: nothing observed can match them. Parts outside the image
-// are never on the grid.
+// depth in front) are left out: nothing observed can match them; with `inside_mask_only`
+// every pixel outside the observed mask is. Parts outside the image are never on the grid.
+// With `normals`, also the unit normal (object frame) of the face each point lies on.
 std::vector<Eigen::Vector3d> VisibleModelPoints(const Mesh& mesh, const EvaluationGrid& grid,
                                                 const Eigen::Isometry3d& cam_from_object,
                                                 const ScoreOptions& score_options, int max_points,
-                                                RasterImage* scratch) {
+                                                bool inside_mask_only, RasterImage* scratch,
+                                                std::vector<Eigen::Vector3d>* normals = nullptr) {
   RasterOptions raster_options;
-  raster_options.want_face_id = false;
+  raster_options.want_face_id = normals != nullptr;
+  raster_options.cull_backfaces = score_options.cull_backfaces;
   const Camera& camera = grid.camera;
   Rasterize(mesh, camera, cam_from_object, raster_options, scratch);
   const int count = std::max(1, scratch->pixel_count);
   const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(count) / max_points))));
   const Eigen::Isometry3d object_from_cam = cam_from_object.inverse();
   std::vector<Eigen::Vector3d> points;
+  if (normals != nullptr) normals->clear();
   for (int v = stride / 2; v < scratch->depth.rows; v += stride) {
     const float* row = scratch->depth.ptr<float>(v);
     const uint8_t* mask = grid.mask.ptr<uint8_t>(v);
     const float* observed = grid.depth.ptr<float>(v);
     for (int u = stride / 2; u < scratch->depth.cols; u += stride) {
       if (!(row[u] > 0.0f)) continue;
-      if (!mask[u] && IsOccluded(row[u], observed[u], score_options)) continue;
+      if (!mask[u] && (inside_mask_only || IsOccluded(row[u], observed[u], score_options))) continue;
       points.push_back(object_from_cam * camera.Backproject(PixelCentre(u, v), row[u]));
+      if (normals == nullptr) continue;
+      const Eigen::Vector3i& face = mesh.faces[static_cast<size_t>(scratch->face_id.at<int32_t>(v, u))];
+      const Eigen::Vector3d a = mesh.vertices[static_cast<size_t>(face[0])].cast<double>();
+      const Eigen::Vector3d normal =
+          (mesh.vertices[static_cast<size_t>(face[1])].cast<double>() - a).cross(mesh.vertices[static_cast<size_t>(face[2])].cast<double>() - a);
+      const double length = normal.norm();
+      normals->push_back(length > 0.0 ? Eigen::Vector3d(normal / length) : Eigen::Vector3d::Zero());
     }
   }
   return points;
@@ -226,6 +220,7 @@ std::vector<Eigen::Vector3d> DistancePoints(const Mesh& mesh, size_t count) {
 struct Finalist {
   Eigen::Isometry3d cam_from_object;
   PoseScore score;
+  int hypothesis = -1;  // index of the kept hypothesis it came from; -1 = none (stage 6)
 };
 
 // Among the finalists (T_A last): drops poses equal modulo the symmetries to a better one,
@@ -267,6 +262,7 @@ void ResolveFinalists(const SolverOptions& options, const TemplateBank& bank, co
   if (chosen != 0) stages.appearance_changed = true;
   result->cam_from_object = distinct[chosen].cam_from_object;
   result->details = distinct[chosen].score;
+  stages.answer_hypothesis = distinct[chosen].hypothesis;
   result->appearance_valid = appearance[chosen].valid;
   result->appearance_agreement = appearance[chosen].agreement;
   // Runner-up: the best distinct finalist by S that is not the answer moved by a
@@ -316,6 +312,248 @@ std::vector<Eigen::Isometry3d> PostRefineHypotheses(const Eigen::Isometry3d& cam
   return poses;
 }
 
+// Shares of SolverOptions::budget_ms after which a stage starts no new work, so that a
+// tight budget still reaches ICP and MHPO on the best hypotheses instead of being spent
+// on PnP for every template. From the stage times at K = 18 (bench/RESULTS.md, issue 13):
+// features, matching and PnP about a third of a solve, selection a tenth, ICP a third.
+constexpr double kPnpBudgetShare = 0.35;
+constexpr double kObservableBudgetShare = 0.45;
+constexpr double kIcpBudgetShare = 0.8;
+
+// The deadline of one solve, and whether work was skipped because of it.
+class SolveClock {
+ public:
+  explicit SolveClock(const SolverOptions& options) : deadline_(options.budget_ms, options.stop_requested) {}
+  // True, and records that work was skipped, once `share` of the budget is used up (or a
+  // stop was requested).
+  bool OutOfTime(double share = 1.0) {
+    if (!deadline_.ExpiredAt(share)) return false;
+    skipped_ = true;
+    return true;
+  }
+  void MarkSkipped() { skipped_ = true; }
+  bool Skipped() const { return skipped_; }
+  const Deadline& deadline() const { return deadline_; }
+
+ private:
+  Deadline deadline_;
+  std::atomic<bool> skipped_{false};
+};
+
+// Pose comparison modulo symmetries (mean distance of model points, as ADD), with a cheap
+// lower bound that settles most pairs of distant poses: for any symmetry g,
+// mean |a x - b g x| >= |a c - b g c| >= |a c - b c| - |c - g c|, c the points' centroid,
+// and |c - g c| <= reach_ for every g.
+class PoseComparer {
+ public:
+  PoseComparer(const MeshSymmetries& symmetries, std::vector<Eigen::Vector3d> points)
+      : symmetries_(symmetries), points_(std::move(points)) {
+    for (const Eigen::Vector3d& x : points_) centroid_ += x;
+    centroid_ /= static_cast<double>(std::max<size_t>(1, points_.size()));
+    for (const Eigen::Isometry3d& g : symmetries_.discrete) reach_ = std::max(reach_, (g * centroid_ - centroid_).norm());
+    if (symmetries_.revolution) {
+      const Eigen::Vector3d axis = symmetries_.axis.normalized();
+      const Eigen::Vector3d offset = centroid_ - symmetries_.point;
+      reach_ += 2.0 * (offset - offset.dot(axis) * axis).norm();
+    }
+  }
+  const MeshSymmetries& symmetries() const { return symmetries_; }
+  const std::vector<Eigen::Vector3d>& points() const { return points_; }
+  // True when a and b are within `distance_m` of each other modulo the symmetries.
+  bool Within(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double distance_m) const {
+    if ((a * centroid_ - b * centroid_).norm() - reach_ > distance_m) return false;
+    return SymmetricPoseDistance(symmetries_, points_, a, b) <= distance_m;
+  }
+
+ private:
+  MeshSymmetries symmetries_;
+  std::vector<Eigen::Vector3d> points_;
+  Eigen::Vector3d centroid_ = Eigen::Vector3d::Zero();
+  double reach_ = 0.0;
+};
+
+// A pose hypothesis and the rank (by Q_j, 0 = best) of the correspondence set it came from.
+struct Hypothesis {
+  Eigen::Isometry3d cam_from_object;
+  int set_rank = 0;
+};
+
+// Everything the stages share for one instance.
+struct SolveContext {
+  const Frame& frame;
+  const TemplateBank& bank;
+  const SolverOptions& options;
+  Executor* executor;
+  const Observation& observation;
+  const PoseComparer& comparer;      // modulo the answer symmetries
+  ScoreOptions online_score;         // options.score, culling set for the online mesh
+  ScoreOptions selection_score;      // the same for the selection mesh
+  const Mesh* selection_mesh;        // the coarse mesh, or the online mesh
+  SolveClock* clock;
+  StageReport* stages;
+};
+
+// Stage 2: MSAC-PnP on every correspondence set (in rank order, down to
+// options.pnp_min_quality_ratio of the best Q), then the poses equal modulo the symmetries
+// to a better-ranked one are merged (options.merge_pnp_poses). Past the PnP share of the
+// budget no new set starts once one pose exists.
+std::vector<Hypothesis> RunPnpStage(const SolveContext& c, const std::vector<CorrespondenceSet>& sets,
+                                    const std::vector<Feature>& query) {
+  const SolverOptions& options = c.options;
+  const Observation& observation = c.observation;
+  const double projected_size_px = std::max(observation.box.width, observation.box.height);
+  std::vector<Eigen::Vector2d> query_image_points(query.size());
+  for (size_t i = 0; i < query.size(); ++i) {
+    query_image_points[i] = query[i].xy.cast<double>() + Eigen::Vector2d::Constant(kOpenCvToImage);
+  }
+  const std::vector<Eigen::Vector3d> query_points_in_cam =
+      BackprojectKeypoints(c.frame.camera, observation.depth, observation.mask, query_image_points);
+  PnpPrior prior;
+  prior.z_m = observation.z_m;
+  prior.diameter_m = c.bank.diameter_m;
+  prior.centre_in_object = c.bank.bounding_box.center();
+  prior.query_points_in_cam = &query_points_in_cam;
+  int tried = static_cast<int>(sets.size());
+  for (int i = 1; i < tried; ++i) {
+    if (sets[static_cast<size_t>(i)].quality < options.pnp_min_quality_ratio * sets.front().quality) tried = i;
+  }
+  std::vector<PnpResult> pnp(static_cast<size_t>(tried));
+  std::atomic<bool> any_pose{false};
+  c.executor->ParallelFor(tried, [&](int i) {
+    if (any_pose && c.clock->OutOfTime(kPnpBudgetShare)) return;
+    PnpResult& p = pnp[static_cast<size_t>(i)];
+    EstimatePnp(options.pnp, sets[static_cast<size_t>(i)], c.frame.camera, projected_size_px, prior, &p);
+    if (p.success) any_pose = true;
+  });
+  c.stages->sets_tried = tried;
+  std::vector<Hypothesis> hypotheses;
+  const double distinct_m = options.distinct_pose_fraction * c.bank.diameter_m;
+  for (int i = 0; i < tried; ++i) {
+    const PnpResult& p = pnp[static_cast<size_t>(i)];
+    if (!p.success) continue;
+    ++c.stages->pnp_hypotheses;
+    c.stages->pnp_poses.push_back(p.cam_from_object);
+    bool distinct = true;
+    if (options.merge_pnp_poses) {
+      for (size_t k = 0; k < hypotheses.size() && distinct; ++k) {
+        distinct = !c.comparer.Within(p.cam_from_object, hypotheses[k].cam_from_object, distinct_m);
+      }
+    }
+    if (distinct) hypotheses.push_back(Hypothesis{p.cam_from_object, i});
+  }
+  c.stages->pnp_merged = c.stages->pnp_hypotheses - static_cast<int>(hypotheses.size());
+  return hypotheses;
+}
+
+// Stage 3: observable selection (eq. 7). Every hypothesis is rendered on the selection
+// grid and ranked by E_obs; the first options.num_hypotheses distinct ones are kept.
+std::vector<Hypothesis> SelectObservable(const SolveContext& c, const std::vector<Hypothesis>& hypotheses) {
+  const SolverOptions& options = c.options;
+  std::vector<PoseScore> observable(hypotheses.size());
+  c.executor->ParallelFor(static_cast<int>(hypotheses.size()), [&](int i) {
+    if (i > 0 && c.clock->OutOfTime(kObservableBudgetShare)) return;  // unscored: E_obs stays at its worst
+    RasterImage scratch;
+    observable[static_cast<size_t>(i)] = ScorePose(c.observation.selection_grid, *c.selection_mesh,
+                                                   hypotheses[static_cast<size_t>(i)].cam_from_object,
+                                                   c.observation.z_m, c.selection_score, &scratch);
+  });
+  std::vector<int> order(hypotheses.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return observable[static_cast<size_t>(a)].e_obs < observable[static_cast<size_t>(b)].e_obs;
+  });
+  // K slots for distinct poses: a hypothesis equal (modulo the symmetries) to a better
+  // one already kept adds nothing (all distinct already when the PnP poses were merged).
+  const double distinct_m = options.distinct_pose_fraction * c.bank.diameter_m;
+  std::vector<Hypothesis> kept;
+  for (int i : order) {
+    if (kept.size() >= static_cast<size_t>(options.num_hypotheses)) break;
+    if (!kept.empty() && c.clock->OutOfTime(kObservableBudgetShare)) break;
+    const Hypothesis& h = hypotheses[static_cast<size_t>(i)];
+    bool distinct = true;
+    for (size_t k = 0; k < kept.size() && distinct && !options.merge_pnp_poses; ++k) {
+      distinct = !c.comparer.Within(h.cam_from_object, kept[k].cam_from_object, distinct_m);
+    }
+    if (!distinct) continue;
+    if (kept.empty()) c.stages->best_e_obs = observable[static_cast<size_t>(i)].e_obs;
+    kept.push_back(h);
+  }
+  return kept;
+}
+
+// Stage 4: trimmed ICP on depth for every kept hypothesis. Coarse to fine: each runs to
+// convergence on options.icp_coarse_points source points first (the long slides from a
+// poor start cost a quarter), then on the full source from there. With
+// options.icp_probe_iterations > 0, every hypothesis first gets only that many coarse
+// iterations and is scored (S); only the options.icp_finish_hypotheses best by S go on.
+// Returns each hypothesis' score after ICP; refines the poses in place.
+std::vector<PoseScore> RefineHypothesesByIcp(const SolveContext& c, std::vector<Hypothesis>* kept) {
+  const SolverOptions& options = c.options;
+  const size_t n = kept->size();
+  std::vector<PoseScore> scores(n);
+  std::vector<int> iterations(n, 0), converged(n, 0), unfinished(n, 0), at_max(n, 0);
+  // One ICP run of at most `max_iterations` on a source of at most `max_points`.
+  auto run_icp = [&](size_t k, int max_points, int max_iterations, RasterImage* scratch) {
+    Eigen::Isometry3d& pose = (*kept)[k].cam_from_object;
+    std::vector<Eigen::Vector3d> normals;
+    const std::vector<Eigen::Vector3d> source =
+        VisibleModelPoints(c.bank.online_mesh, c.observation.refine_grid, pose, c.online_score, max_points,
+                           options.icp_source_in_mask, scratch, options.icp.point_to_plane ? &normals : nullptr);
+    IcpOptions icp = options.icp;
+    icp.max_iterations = max_iterations;
+    IcpReport report;
+    RefineByTrimmedIcp(icp, source, *c.observation.observed, c.bank.diameter_m, &pose, &report,
+                       options.icp.point_to_plane ? &normals : nullptr);
+    iterations[k] += report.iterations;
+    converged[k] = report.success;
+    unfinished[k] = report.success && report.iterations >= max_iterations;
+    at_max[k] += unfinished[k];
+  };
+  const bool coarse = options.icp_coarse_points > 0 && options.icp_coarse_points < options.max_source_points;
+  // Coarse (unless `probe_only`, to convergence), fine, then S.
+  auto refine = [&](size_t k, bool probe_only) {
+    RasterImage scratch;
+    if (options.run_icp) {
+      if (probe_only) {
+        run_icp(k, coarse ? options.icp_coarse_points : options.max_source_points, options.icp_probe_iterations, &scratch);
+      } else {
+        if (coarse) run_icp(k, options.icp_coarse_points, options.icp.max_iterations, &scratch);
+        run_icp(k, options.max_source_points, options.icp.max_iterations, &scratch);
+      }
+    }
+    scores[k] = ScorePose(c.observation.refine_grid, c.bank.online_mesh, (*kept)[k].cam_from_object, c.observation.z_m,
+                          c.online_score, &scratch);
+  };
+  const bool two_pass = options.run_icp && options.icp_probe_iterations > 0;
+  c.executor->ParallelFor(static_cast<int>(n), [&](int k) {
+    if (k > 0 && c.clock->OutOfTime(kIcpBudgetShare)) return;  // not refined, not scored: S stays at its worst
+    refine(static_cast<size_t>(k), two_pass);
+  });
+  if (two_pass) {
+    std::vector<int> order(n);
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+      return scores[static_cast<size_t>(a)].s < scores[static_cast<size_t>(b)].s;
+    });
+    std::vector<size_t> finish;
+    for (int k : order) {
+      if (finish.size() >= static_cast<size_t>(options.icp_finish_hypotheses)) break;
+      if (unfinished[static_cast<size_t>(k)]) finish.push_back(static_cast<size_t>(k));
+    }
+    c.executor->ParallelFor(static_cast<int>(finish.size()), [&](int i) {
+      if (c.clock->OutOfTime(kIcpBudgetShare)) return;
+      refine(finish[static_cast<size_t>(i)], false);
+    });
+    c.stages->icp_finished = static_cast<int>(finish.size());
+  }
+  for (size_t k = 0; k < n; ++k) {
+    c.stages->icp_converged += converged[k];
+    c.stages->icp_iterations += iterations[k];
+    c.stages->icp_runs_at_max += at_max[k];
+  }
+  return scores;
+}
+
 }  // namespace
 
 PoseScore ScoreInstancePose(const Frame& frame, const Instance& instance, const TemplateBank& bank,
@@ -335,14 +573,8 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
   StageReport& stages = result.stages;
   const Stopwatch total;
   // Past the deadline every stage keeps only what is needed to return a pose: the first
-  // PnP pose found, its score; `skipped` records that work was left out.
-  const Deadline deadline(options.budget_ms, options.stop_requested);
-  std::atomic<bool> skipped{false};
-  auto out_of_time = [&]() {
-    if (!deadline.Expired()) return false;
-    skipped = true;
-    return true;
-  };
+  // PnP pose found, its score; the clock records that work was left out.
+  SolveClock clock(options);
   auto fail = [&](Termination termination, const std::string& message) {
     result.success = false;
     result.termination = termination;
@@ -359,19 +591,20 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
     Observation observation;
     const std::string bad_observation = PrepareObservation(frame, instance, options, &observation);
     if (!bad_observation.empty()) return fail(Termination::kBadInput, bad_observation);
-    const cv::Mat& mask = observation.mask;
-    const cv::Mat& depth = observation.depth;
-    const cv::Rect& box = observation.box;
-    const double z_m = observation.z_m;
-    const PointCloudIndex& observed_index = *observation.observed;
-    const EvaluationGrid& selection_grid = observation.selection_grid;
-    const EvaluationGrid& refine_grid = observation.refine_grid;
     result.truncated = observation.truncated;
+    const PoseComparer comparer(AnswerSymmetries(bank), DistancePoints(bank.online_mesh, 64));
+    SolveContext context{frame, bank, options, executor, observation, comparer, options.score, options.score,
+                         &bank.online_mesh, &clock, &stages};
+    context.online_score.cull_backfaces = options.cull_backfaces && bank.online_mesh_closed;
+    const bool coarse = options.coarse_selection_mesh && !bank.selection_mesh.faces.empty();
+    context.selection_mesh = coarse ? &bank.selection_mesh : &bank.online_mesh;
+    context.selection_score.cull_backfaces =
+        options.cull_backfaces && (coarse ? bank.selection_mesh_closed : bank.online_mesh_closed);
     stages.prepare_ms = watch.ElapsedMs();
 
     // ---- stage 1: features and template matching
     watch.Restart();
-    const NormalizedCrop crop = NormalizeCrop(frame.rgb, mask, bank.options.crop);
+    const NormalizedCrop crop = NormalizeCrop(frame.rgb, observation.mask, bank.options.crop);
     const std::vector<Feature> query = DetectOrb(crop, options.query_orb);
     stages.query_features = static_cast<int>(query.size());
     stages.features_ms = watch.ElapsedMs();
@@ -386,124 +619,59 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
     {
       // Template seed: the best template's rotation, translated onto the mask centre at z_M.
       const Template& best = bank.templates[static_cast<size_t>(sets.front().template_index)];
-      const Eigen::Vector3d centre = bank.bounding_box.center();
+      const cv::Rect& box = observation.box;
       const Eigen::Vector2d mask_centre(box.x + 0.5 * box.width, box.y + 0.5 * box.height);
       stages.seed_pose.linear() = best.cam_from_object.linear();
       stages.seed_pose.translation() =
-          frame.camera.Backproject(mask_centre, z_m) - best.cam_from_object.linear() * centre;
+          frame.camera.Backproject(mask_centre, observation.z_m) - best.cam_from_object.linear() * bank.bounding_box.center();
     }
 
-    // ---- stage 2: MSAC-PnP per correspondence set
+    // ---- stage 2: MSAC-PnP per correspondence set, equal poses merged
     watch.Restart();
-    const double projected_size_px = std::max(box.width, box.height);
-    std::vector<Eigen::Vector2d> query_image_points(query.size());
-    for (size_t i = 0; i < query.size(); ++i) {
-      query_image_points[i] = query[i].xy.cast<double>() + Eigen::Vector2d::Constant(kOpenCvToImage);
-    }
-    const std::vector<Eigen::Vector3d> query_points_in_cam =
-        BackprojectKeypoints(frame.camera, depth, mask, query_image_points);
-    PnpPrior prior;
-    prior.z_m = z_m;
-    prior.diameter_m = bank.diameter_m;
-    prior.centre_in_object = bank.bounding_box.center();
-    prior.query_points_in_cam = &query_points_in_cam;
-    std::vector<PnpResult> pnp(sets.size());
-    std::atomic<bool> any_pose{false};
-    executor->ParallelFor(static_cast<int>(sets.size()), [&](int i) {
-      if (any_pose && out_of_time()) return;
-      PnpResult& p = pnp[static_cast<size_t>(i)];
-      EstimatePnp(options.pnp, sets[static_cast<size_t>(i)], frame.camera, projected_size_px, prior, &p);
-      if (p.success) any_pose = true;
-    });
-    std::vector<Eigen::Isometry3d> hypotheses;
-    for (const PnpResult& p : pnp) {
-      if (p.success) hypotheses.push_back(p.cam_from_object);
-    }
+    const std::vector<Hypothesis> hypotheses = RunPnpStage(context, sets, query);
     stages.pnp_ms = watch.ElapsedMs();
-    stages.pnp_hypotheses = static_cast<int>(hypotheses.size());
-    if (hypotheses.empty()) return fail(Termination::kNoHypothesis, "MSAC-PnP found no valid pose in " + std::to_string(sets.size()) + " correspondence sets");
-    stages.pnp_pose = hypotheses.front();  // from the best-ranked template with a valid pose
+    if (hypotheses.empty()) {
+      return fail(Termination::kNoHypothesis, "MSAC-PnP found no valid pose in " + std::to_string(stages.sets_tried) + " correspondence sets");
+    }
+    stages.pnp_pose = hypotheses.front().cam_from_object;  // from the best-ranked template with a valid pose
 
     // ---- stage 3: observable selection (eq. 7)
     watch.Restart();
-    const MeshSymmetries symmetries = AnswerSymmetries(bank);
-    const std::vector<Eigen::Vector3d> distance_points = DistancePoints(bank.online_mesh, 64);
-    std::vector<PoseScore> observable(hypotheses.size());
-    executor->ParallelFor(static_cast<int>(hypotheses.size()), [&](int i) {
-      if (i > 0 && out_of_time()) return;  // unscored: E_obs stays at its worst
-      RasterImage scratch;
-      observable[static_cast<size_t>(i)] = ScorePose(selection_grid, bank.online_mesh, hypotheses[static_cast<size_t>(i)], z_m, options.score, &scratch);
-    });
-    std::vector<int> order(hypotheses.size());
-    std::iota(order.begin(), order.end(), 0);
-    std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-      return observable[static_cast<size_t>(a)].e_obs < observable[static_cast<size_t>(b)].e_obs;
-    });
-    // K slots for distinct poses: a hypothesis equal (modulo the symmetries) to a better
-    // one already kept adds nothing.
-    const double distinct_m = options.distinct_pose_fraction * bank.diameter_m;
-    std::vector<Eigen::Isometry3d> kept;
-    std::vector<int> kept_order;
-    for (int i : order) {
-      if (kept.size() >= static_cast<size_t>(options.num_hypotheses)) break;
-      if (!kept.empty() && out_of_time()) break;
-      const Eigen::Isometry3d& pose = hypotheses[static_cast<size_t>(i)];
-      bool distinct = true;
-      for (size_t k = 0; k < kept.size() && distinct; ++k) {
-        distinct = SymmetricPoseDistance(symmetries, distance_points, pose, kept[k]) > distinct_m;
-      }
-      if (!distinct) continue;
-      kept.push_back(pose);
-      kept_order.push_back(i);
-    }
-    order = kept_order;
+    std::vector<Hypothesis> kept = SelectObservable(context, hypotheses);
     stages.kept_hypotheses = static_cast<int>(kept.size());
-    stages.best_e_obs = observable[static_cast<size_t>(order.front())].e_obs;
-    stages.observable_pose = kept.front();
-    stages.pnp_poses = hypotheses;
-    stages.kept_poses = kept;
+    stages.observable_pose = kept.front().cam_from_object;
+    for (const Hypothesis& h : kept) stages.kept_poses.push_back(h.cam_from_object);
     stages.observable_ms = watch.ElapsedMs();
 
-    // ---- stage 4: trimmed ICP on depth, every kept hypothesis independently
+    // ---- stage 4: trimmed ICP on depth
     watch.Restart();
-    std::vector<PoseScore> icp_scores(kept.size());
-    std::vector<int> icp_ok(kept.size(), 0);
-    executor->ParallelFor(static_cast<int>(kept.size()), [&](int k) {
-      if (k > 0 && out_of_time()) return;  // not refined, not scored: S stays at its worst
-      RasterImage scratch;
-      Eigen::Isometry3d& pose = kept[static_cast<size_t>(k)];
-      if (options.run_icp && !(k == 0 && out_of_time())) {
-        const std::vector<Eigen::Vector3d> source =
-            VisibleModelPoints(bank.online_mesh, refine_grid, pose, options.score, options.max_source_points, &scratch);
-        IcpReport icp_report;
-        RefineByTrimmedIcp(options.icp, source, observed_index, bank.diameter_m, &pose, &icp_report);
-        icp_ok[static_cast<size_t>(k)] = icp_report.success;
-      }
-      icp_scores[static_cast<size_t>(k)] = ScorePose(refine_grid, bank.online_mesh, pose, z_m, options.score, &scratch);
-    });
+    const std::vector<PoseScore> icp_scores = RefineHypothesesByIcp(context, &kept);
+    std::vector<Eigen::Isometry3d> refined;
+    for (const Hypothesis& h : kept) refined.push_back(h.cam_from_object);
     int best_after_icp = 0;
     for (size_t k = 0; k < kept.size(); ++k) {
-      stages.icp_converged += icp_ok[k];
       if (icp_scores[k].s < icp_scores[static_cast<size_t>(best_after_icp)].s) best_after_icp = static_cast<int>(k);
     }
     stages.best_s_after_icp = icp_scores[static_cast<size_t>(best_after_icp)].s;
-    stages.icp_pose = kept[static_cast<size_t>(best_after_icp)];
+    stages.icp_pose = refined[static_cast<size_t>(best_after_icp)];
     stages.icp_ms = watch.ElapsedMs();
 
     // ---- stage 5: MHPO, best state over all hypotheses and rounds (T_A, S_A)
     watch.Restart();
     result.cam_from_object = stages.icp_pose;
     result.details = icp_scores[static_cast<size_t>(best_after_icp)];
+    stages.answer_hypothesis = best_after_icp;
     result.termination = Termination::kConverged;
-    if (options.run_mhpo && !out_of_time()) {
-      const MhpoTarget target = MakeMhpoTarget(refine_grid, z_m);
+    const MhpoTarget target = MakeMhpoTarget(observation.refine_grid, observation.z_m);
+    if (options.run_mhpo && !clock.OutOfTime()) {
       Eigen::Isometry3d best;
-      RefineByMhpo(options.mhpo, options.score, target, bank.online_mesh, kept, executor, &best, &stages.mhpo,
-                   &deadline);
-      if (stages.mhpo.cut_short) skipped = true;
+      RefineByMhpo(options.mhpo, context.online_score, target, bank.online_mesh, refined, executor, &best, &stages.mhpo,
+                   &clock.deadline(), &icp_scores);
+      if (stages.mhpo.cut_short) clock.MarkSkipped();
       if (stages.mhpo.success && stages.mhpo.best_score.s <= result.details.s) {
         result.cam_from_object = best;
         result.details = stages.mhpo.best_score;
+        stages.answer_hypothesis = stages.mhpo.best_hypothesis;
       }
       if (stages.mhpo.early_stopped) result.termination = Termination::kEarlyStopped;
     }
@@ -512,52 +680,63 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
     // Finalists: every hypothesis' best state, for the runner-up and appearance.
     std::vector<Finalist> finalists;
     for (size_t k = 0; k < kept.size(); ++k) {
-      const bool refined = options.run_mhpo && stages.mhpo.success && k < stages.mhpo.hypotheses.size();
-      finalists.push_back(refined ? Finalist{stages.mhpo.hypotheses[k].best_cam_from_object, stages.mhpo.hypotheses[k].best_score}
-                                  : Finalist{kept[k], icp_scores[k]});
+      const bool mhpo_ran = options.run_mhpo && stages.mhpo.success && k < stages.mhpo.hypotheses.size();
+      finalists.push_back(mhpo_ran ? Finalist{stages.mhpo.hypotheses[k].best_cam_from_object, stages.mhpo.hypotheses[k].best_score, static_cast<int>(k)}
+                                   : Finalist{refined[k], icp_scores[k], static_cast<int>(k)});
     }
 
     // ---- stage 6 (optional): post-refinement of a poor T_A
-    if (options.post_refine && result.details.s > options.post_refine_trigger_s && !out_of_time()) {
+    if (options.post_refine && result.details.s > options.post_refine_trigger_s && !clock.OutOfTime()) {
       watch.Restart();
       stages.post_refine_ran = true;
-      std::vector<Eigen::Isometry3d> extra = PostRefineHypotheses(result.cam_from_object, bank, frame.camera, box, z_m);
+      std::vector<Eigen::Isometry3d> extra =
+          PostRefineHypotheses(result.cam_from_object, bank, frame.camera, observation.box, observation.z_m);
       executor->ParallelFor(static_cast<int>(extra.size()), [&](int k) {
         RasterImage scratch;
         Eigen::Isometry3d& pose = extra[static_cast<size_t>(k)];
+        std::vector<Eigen::Vector3d> normals;
         const std::vector<Eigen::Vector3d> source =
-            VisibleModelPoints(bank.online_mesh, refine_grid, pose, options.score, options.max_source_points, &scratch);
+            VisibleModelPoints(bank.online_mesh, observation.refine_grid, pose, context.online_score,
+                               options.max_source_points, options.icp_source_in_mask, &scratch,
+                               options.icp.point_to_plane ? &normals : nullptr);
         IcpReport icp_report;
-        RefineByTrimmedIcp(options.icp, source, observed_index, bank.diameter_m, &pose, &icp_report);
+        RefineByTrimmedIcp(options.icp, source, *observation.observed, bank.diameter_m, &pose, &icp_report,
+                           options.icp.point_to_plane ? &normals : nullptr);
       });
-      const MhpoTarget target = MakeMhpoTarget(refine_grid, z_m);
       Eigen::Isometry3d best;
       MhpoReport report;
-      RefineByMhpo(options.mhpo, options.score, target, bank.online_mesh, extra, executor, &best, &report);
+      RefineByMhpo(options.mhpo, context.online_score, target, bank.online_mesh, extra, executor, &best, &report);
       if (report.success && report.best_score.s < result.details.s - options.post_refine_margin) {
         result.cam_from_object = best;
         result.details = report.best_score;
         stages.post_refine_accepted = true;
+        stages.answer_hypothesis = -1;
       }
       stages.post_refine_ms = watch.ElapsedMs();
     }
     // ---- finalists: merge symmetric duplicates, appearance tie-break, ambiguity
     watch.Restart();
-    finalists.push_back(Finalist{result.cam_from_object, result.details});  // T_A (stage 6 may have moved it)
-    if (!out_of_time()) {
-      ResolveFinalists(options, bank, frame, mask, symmetries, distance_points, std::move(finalists), &result);
+    finalists.push_back(Finalist{result.cam_from_object, result.details, stages.answer_hypothesis});  // T_A (stage 6 may have moved it)
+    if (!clock.OutOfTime()) {
+      ResolveFinalists(options, bank, frame, observation.mask, comparer.symmetries(), comparer.points(),
+                       std::move(finalists), &result);
     }
     stages.finalists_ms = watch.ElapsedMs();
+    if (stages.answer_hypothesis >= 0) {
+      const int rank = kept[static_cast<size_t>(stages.answer_hypothesis)].set_rank;
+      stages.answer_set_rank = rank;
+      stages.answer_quality_ratio = sets[static_cast<size_t>(rank)].quality / sets.front().quality;
+    }
     result.score = result.details.s;
     result.confidence = ConfidenceFromScore(options, result.score, result.ambiguous);
     result.success = true;
     result.message = "ok";
-    if (skipped) {
+    if (clock.Skipped()) {
       result.cut_short = true;
       result.termination = Termination::kCutShort;
       std::ostringstream message;
-      message << "ok, cut short after " << static_cast<int>(deadline.ElapsedMs()) << " ms ("
-              << (deadline.Stopped() ? "stop requested" : "budget " + std::to_string(static_cast<int>(options.budget_ms)) + " ms")
+      message << "ok, cut short after " << static_cast<int>(clock.deadline().ElapsedMs()) << " ms ("
+              << (clock.deadline().Stopped() ? "stop requested" : "budget " + std::to_string(static_cast<int>(options.budget_ms)) + " ms")
               << "): the best pose so far";
       result.message = message.str();
     }

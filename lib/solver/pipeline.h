@@ -51,10 +51,31 @@ struct SolverOptions {
     grid.max_side_px = 160;
     return grid;
   }();                          ///< ROI grid for ICP sources, MHPO and the final S
-  IcpOptions icp;               ///< ρ = 0.70, κ_d = 0.35
+  /// ρ = 0.70, κ_d = 0.35 (the paper's trimming); point-to-plane along the rendered
+  /// model's normals after 3 point-to-point iterations, stopped when the trimmed RMSE has
+  /// not improved for 5 iterations: on LM-O it converges in about a third of the paper's
+  /// point-to-point iterations and fits tighter (bench/RESULTS.md, issue 13).
+  IcpOptions icp = [] {
+    IcpOptions icp;
+    icp.point_to_plane = true;
+    icp.point_to_point_iterations = 3;
+    icp.stall_window = 5;
+    return icp;
+  }();
   bool run_icp = true;          ///< stage 4 on/off (ablations)
   int max_observed_points = 2500;  ///< observed cloud Y is subsampled to about this many points
-  int max_source_points = 600;     ///< rendered ICP source cloud size at most
+  int max_source_points = 600;     ///< rendered ICP source cloud size at most (fine)
+  /// ICP coarse to fine: each hypothesis converges on this many source points first, then
+  /// on max_source_points from there (0 = the full source only).
+  int icp_coarse_points = 150;
+  /// ICP probing: every kept hypothesis first gets only this many (coarse) iterations and
+  /// is scored (S); only the `icp_finish_hypotheses` best by S then run to convergence.
+  /// 0 = off: every hypothesis runs to convergence (the paper's schedule).
+  int icp_probe_iterations = 0;
+  int icp_finish_hypotheses = 6;
+  /// ICP source: only rendered points inside the observed mask (else also those outside
+  /// it that no unmasked occluder hides).
+  bool icp_source_in_mask = false;
   MhpoOptions mhpo;             ///< λ_D = 0.1
   bool run_mhpo = true;         ///< stage 5 on/off (ablations)
   /// Stage 6, optional post-refinement (off by default, as in the paper): when S_A is
@@ -79,6 +100,19 @@ struct SolverOptions {
   /// Hypotheses closer than this fraction of the diameter (ADD modulo the mesh's
   /// symmetries) are one pose: observable selection fills its K slots with distinct poses.
   double distinct_pose_fraction = 0.05;
+  /// Merge PnP poses closer than distinct_pose_fraction to a pose from a better-ranked
+  /// template before observable selection, so that each distinct pose is rendered once
+  /// (false: every PnP pose is scored and duplicates are dropped after ranking).
+  bool merge_pnp_poses = true;
+  /// PnP runs on the correspondence sets in rank order while Q_j is at least this fraction
+  /// of the best Q_1 (0 = all N_P sets).
+  double pnp_min_quality_ratio = 0.0;
+  /// Rasterize closed, outward-oriented meshes with back faces culled (no change to any
+  /// rendering; TemplateBank::online_mesh_closed / selection_mesh_closed).
+  bool cull_backfaces = true;
+  /// Observable selection renders TemplateBank::selection_mesh (about a quarter of the
+  /// online mesh's faces) on its 96 px grid instead of the online mesh.
+  bool coarse_selection_mesh = true;
   /// Finalists (every hypothesis' best state after MHPO) farther than this fraction of
   /// the diameter from T_A, modulo the symmetries, are different answers; the best of them
   /// by S is the runner-up.
@@ -129,6 +163,16 @@ struct StageReport {
   int pnp_hypotheses = 0;          ///< valid MSAC-PnP poses
   int kept_hypotheses = 0;         ///< after observable selection (≤ N_H)
   int icp_converged = 0;
+  int sets_tried = 0;               ///< correspondence sets PnP ran on (pnp_min_quality_ratio)
+  int pnp_merged = 0;               ///< PnP poses merged into a better-ranked equal pose
+  int icp_iterations = 0;           ///< ICP iterations over all hypotheses and passes
+  int icp_runs_at_max = 0;          ///< ICP runs that stopped at their iteration limit
+  int icp_finished = 0;             ///< hypotheses that ICP ran to convergence in its second pass
+  /// Index (into the kept hypotheses) of the one that became T_A; -1 = none (stage 6).
+  int answer_hypothesis = -1;
+  /// Rank by Q_j (0 = best) of T_A's correspondence set and its Q_j / Q_1; -1 / 0 when unknown.
+  int answer_set_rank = -1;
+  double answer_quality_ratio = 0.0;
   double best_quality = 0.0;       ///< best Q_j
   double best_e_obs = 1.0;         ///< best E_obs among PnP poses
   double best_s_after_icp = 2.0;   ///< best S after ICP
@@ -150,6 +194,17 @@ struct StageReport {
   std::vector<Eigen::Isometry3d> pnp_poses, kept_poses;
   MhpoReport mhpo;
 };
+
+/// A stage's name and wall time.
+struct StageTime {
+  const char* name;
+  double ms;
+};
+
+/// The stage times of a report in pipeline order, with the names every report uses (the
+/// service's status, g6d-solve, the benchmarks): prepare, features, match, pnp,
+/// observable, icp, mhpo, post_refine, finalists, total.
+std::vector<StageTime> StageTimes(const StageReport& stages);
 
 /// The estimate for one instance.
 struct PoseResult {

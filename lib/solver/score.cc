@@ -58,6 +58,7 @@ PoseScore ScorePose(const EvaluationGrid& grid, const Mesh& mesh,
                     const ScoreOptions& options, RasterImage* scratch) {
   RasterOptions raster_options;
   raster_options.want_face_id = false;
+  raster_options.cull_backfaces = options.cull_backfaces;
   Rasterize(mesh, grid.camera, cam_from_object, raster_options, scratch);
   return ScoreRendering(grid, *scratch, z_m, options);
 }

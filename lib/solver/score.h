@@ -23,6 +23,10 @@ struct ScoreOptions {
   /// covers, so it does not count against the pose in J or S. Pixels outside the image are
   /// never on the grid, so truncation by the border never counts either. <= 0 disables it.
   double occlusion_margin_m = 0.01;
+  /// Rasterize with back faces culled. Only for a closed mesh oriented outwards (the
+  /// pipeline sets it per mesh, TemplateBank::online_mesh_closed): it then changes no
+  /// rendering and skips about half of the triangles.
+  bool cull_backfaces = false;
 
   std::string Check() const;
 };

@@ -861,7 +861,9 @@ TemplateBank ReadTemplateCache(const std::string& path) {
   in.read(reinterpret_cast<char*>(compressed.data()),
           static_cast<std::streamsize>(compressed.size()));
   if (!in) G6D_THROW(name << ": truncated: the body could not be read completely");
-  return DecodeCompressedBody(info, compressed.data(), name);
+  TemplateBank bank = DecodeCompressedBody(info, compressed.data(), name);
+  DeriveOnlineMeshes(&bank);
+  return bank;
 }
 
 TemplateBank ReadTemplateCacheChecked(const std::string& path, const std::string& mesh_path) {

@@ -31,7 +31,8 @@ void WriteTemplateCache(const TemplateBank& bank, const std::string& path, int z
 
 /// Reads a cache. Throws g6d::Error saying which problem it found: missing file,
 /// not a cache (bad magic), wrong version, truncated, checksum mismatch (corrupted),
-/// or a field out of range. Never returns a partially filled bank.
+/// or a field out of range. Never returns a partially filled bank. The bank's derived
+/// meshes are filled (DeriveOnlineMeshes); the in-memory parsers below leave them empty.
 TemplateBank ReadTemplateCache(const std::string& path);
 
 /// Like ReadTemplateCache, and also refuses a stale cache: throws when the hash of the

@@ -46,6 +46,36 @@ size_t TemplateBank::NumKeypoints() const {
 
 namespace {
 
+// Closed, consistently oriented and with its faces counter-clockwise seen from outside
+// (positive enclosed volume, by the divergence theorem).
+bool IsClosedOutward(const Mesh& mesh) {
+  if (!IsClosedAndOriented(mesh)) return false;
+  double six_volume = 0.0;
+  for (const Eigen::Vector3i& face : mesh.faces) {
+    const Eigen::Vector3d a = mesh.vertices[static_cast<size_t>(face[0])].cast<double>();
+    const Eigen::Vector3d b = mesh.vertices[static_cast<size_t>(face[1])].cast<double>();
+    const Eigen::Vector3d c = mesh.vertices[static_cast<size_t>(face[2])].cast<double>();
+    six_volume += a.dot(b.cross(c));
+  }
+  return six_volume > 0.0;
+}
+
+}  // namespace
+
+void DeriveOnlineMeshes(TemplateBank* bank) {
+  bank->selection_mesh = Mesh();
+  bank->online_mesh_closed = false;
+  bank->selection_mesh_closed = false;
+  if (bank->online_mesh.faces.empty()) return;
+  bank->online_mesh_closed = IsClosedOutward(bank->online_mesh);
+  if (static_cast<int>(bank->online_mesh.faces.size()) > kSelectionMeshFaces) {
+    bank->selection_mesh = Decimate(bank->online_mesh, kSelectionMeshFaces);
+    bank->selection_mesh_closed = IsClosedOutward(bank->selection_mesh);
+  }
+}
+
+namespace {
+
 // Storage grids (powers of two, so the rounded values are exact floats whose low mantissa
 // bytes are zero and compress away): far below ORB's localization and the mesh accuracy.
 constexpr double kKeypointGridPx = 1.0 / 64.0;
@@ -252,6 +282,7 @@ TemplateBank BuildTemplateBank(const Mesh& mesh, const std::string& object_id,
       progress(++done, num_views);
     }
   });
+  DeriveOnlineMeshes(&bank);
   return bank;
 }
 

@@ -98,9 +98,29 @@ struct TemplateBank {
   Mesh online_mesh;  ///< decimated geometry for online rasterization
   std::vector<Template> templates;
 
+  // Derived from online_mesh when a bank is built or read (DeriveOnlineMeshes), never
+  // stored in the cache.
+  /// A coarser copy of online_mesh for small silhouettes (observable selection renders
+  /// 96 px); empty = use online_mesh.
+  Mesh selection_mesh;
+  /// online_mesh / selection_mesh is closed and oriented outwards: seen from outside, its
+  /// nearest surface is always front-facing, so back faces can be culled without changing
+  /// a rendering.
+  bool online_mesh_closed = false;
+  bool selection_mesh_closed = false;
+
   /// Total number of keypoints over all templates.
   size_t NumKeypoints() const;
 };
+
+/// Faces of TemplateBank::selection_mesh: at the 96-160 px of the online silhouettes a
+/// triangle of the 4000-face online mesh covers about one pixel; a quarter of them keeps
+/// the silhouette within a pixel (the selection's recall is unchanged: bench/RESULTS.md, issue 13).
+constexpr int kSelectionMeshFaces = 1000;
+
+/// Fills the derived fields of *bank from bank->online_mesh: the selection mesh
+/// (kSelectionMeshFaces) and whether each mesh may be rendered with back faces culled.
+void DeriveOnlineMeshes(TemplateBank* bank);
 
 /// Progress callback: (templates done, templates total).
 using ProgressCallback = std::function<void(int, int)>;
