@@ -136,5 +136,64 @@ TEST(RefineByTrimmedIcp, PointToPlaneConvergesInFewerIterationsThanPointToPoint)
   EXPECT_THROW(PointCloudIndex(observed, std::vector<Eigen::Vector3d>(3)), Error);
 }
 
+// The pipeline's ICP: point-to-plane along the model's own normals (the rendered faces'),
+// no normals on the observed side, after a few point-to-point iterations, ended by the
+// stall rule. It must land where point-to-point lands, in fewer iterations.
+TEST(RefineByTrimmedIcp, PointToPlaneOnSourceNormalsConvergesFasterAndTheStallRuleEndsIt) {
+  std::mt19937_64 rng(23);
+  const auto model = MakeObjectPoints(&rng, 2000);
+  const Eigen::Vector3d half(0.05, 0.03, 0.02);
+  auto face_normal = [&](const Eigen::Vector3d& p) {
+    Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+    for (int axis = 0; axis < 3; ++axis) {
+      if (std::abs(p[axis] + half[axis]) < 1e-12) normal[axis] = -1.0;
+    }
+    return Eigen::Vector3d(normal.normalized());
+  };
+  const Eigen::Isometry3d truth = MakePose(ExpSO3(Eigen::Vector3d(-0.4, 0.3, 0.6)), Eigen::Vector3d(-0.01, 0.02, 0.9));
+  std::normal_distribution<double> noise(0.0, 0.0005);
+  std::vector<Eigen::Vector3d> observed;
+  for (size_t i = 0; i < model.size(); i += 2) {
+    observed.push_back(truth * model[i] + Eigen::Vector3d(noise(rng), noise(rng), noise(rng)));
+  }
+  const PointCloudIndex index(observed);  // no target normals
+  std::vector<Eigen::Vector3d> source, normals;
+  for (size_t i = 1; i < model.size(); i += 4) {
+    source.push_back(model[i]);
+    normals.push_back(face_normal(model[i]));
+  }
+  Eigen::Isometry3d start = truth;
+  start.linear() = ExpSO3(Eigen::Vector3d(0.06, 0.05, -0.04)) * start.linear();  // about 5 deg
+  start.translation() += Eigen::Vector3d(-0.007, 0.009, 0.008);                   // 14 mm
+  IcpOptions point;
+  point.max_iterations = 200;
+  IcpOptions plane = point;
+  plane.point_to_plane = true;
+  plane.point_to_point_iterations = 3;
+  IcpOptions stalled = plane;
+  stalled.stall_window = 5;
+  Eigen::Isometry3d by_point = start, by_plane = start, by_stalled = start;
+  IcpReport point_report, plane_report, stalled_report;
+  RefineByTrimmedIcp(point, source, index, 0.12, &by_point, &point_report);
+  RefineByTrimmedIcp(plane, source, index, 0.12, &by_plane, &plane_report, &normals);
+  RefineByTrimmedIcp(stalled, source, index, 0.12, &by_stalled, &stalled_report, &normals);
+  ASSERT_TRUE(point_report.success && plane_report.success && stalled_report.success);
+  for (const Eigen::Isometry3d* pose : {&by_plane, &by_stalled}) {
+    EXPECT_LT(RotationErrorDeg(pose->linear(), truth.linear()), 1.0);
+    EXPECT_LT(TranslationError(*pose, truth), 0.002);
+  }
+  EXPECT_LT(plane_report.iterations, point_report.iterations)
+      << "point-to-plane " << plane_report.iterations << ", point-to-point " << point_report.iterations;
+  EXPECT_LE(stalled_report.iterations, plane_report.iterations);
+  std::cout << "iterations: point-to-point " << point_report.iterations << ", point-to-plane "
+            << plane_report.iterations << ", with the stall rule " << stalled_report.iterations << "\n";
+
+  // One normal per source point or none.
+  normals.pop_back();
+  Eigen::Isometry3d pose = start;
+  IcpReport report;
+  EXPECT_THROW(RefineByTrimmedIcp(plane, source, index, 0.12, &pose, &report, &normals), Error);
+}
+
 }  // namespace
 }  // namespace g6d

@@ -120,5 +120,53 @@ TEST(RefineByMhpo, SameResultWithOneAndTwoThreads) {
   EXPECT_TRUE(best_one.matrix() == best_two.matrix());
 }
 
+// Early stopping may end MHPO only after min_rounds: with a threshold every pose meets,
+// min_rounds = 0 refines nothing, min_rounds = 1 refines every hypothesis once.
+TEST(RefineByMhpo, EarlyStoppingWaitsForMinRounds) {
+  Fixture f;
+  const MhpoTarget target = MakeMhpoTarget(f.grid, f.z_m);
+  std::vector<Eigen::Isometry3d> hypotheses;
+  for (int k = 0; k < 3; ++k) {
+    Eigen::Isometry3d pose = f.truth;
+    pose.translation() += Eigen::Vector3d(0.002 * k, 0.003, -0.002);
+    hypotheses.push_back(pose);
+  }
+  MhpoOptions options;
+  options.early_stop_score = 10.0;  // any S
+  InlineExecutor executor;
+  Eigen::Isometry3d best;
+  MhpoReport report;
+  options.min_rounds = 0;
+  RefineByMhpo(options, ScoreOptions(), target, f.mesh, hypotheses, &executor, &best, &report);
+  ASSERT_TRUE(report.success);
+  EXPECT_TRUE(report.early_stopped);
+  for (const auto& h : report.hypotheses) EXPECT_EQ(h.rounds, 0);
+  options.min_rounds = 1;
+  RefineByMhpo(options, ScoreOptions(), target, f.mesh, hypotheses, &executor, &best, &report);
+  ASSERT_TRUE(report.success);
+  EXPECT_TRUE(report.early_stopped);
+  for (const auto& h : report.hypotheses) EXPECT_EQ(h.rounds, 1);
+}
+
+// Scores the caller already has are used as they are (not recomputed).
+TEST(RefineByMhpo, UsesTheGivenInitialScores) {
+  Fixture f;
+  const MhpoTarget target = MakeMhpoTarget(f.grid, f.z_m);
+  const std::vector<Eigen::Isometry3d> hypotheses = {f.truth};
+  MhpoOptions options;
+  options.max_rounds = 0;
+  InlineExecutor executor;
+  Eigen::Isometry3d best;
+  MhpoReport report;
+  PoseScore given;
+  given.s = 0.123;
+  const std::vector<PoseScore> scores = {given};
+  RefineByMhpo(options, ScoreOptions(), target, f.mesh, hypotheses, &executor, &best, &report, nullptr, &scores);
+  ASSERT_TRUE(report.success);
+  EXPECT_EQ(report.hypotheses[0].initial_s, 0.123);
+  RefineByMhpo(options, ScoreOptions(), target, f.mesh, hypotheses, &executor, &best, &report);
+  EXPECT_LT(report.hypotheses[0].initial_s, 0.01);  // computed: the truth fits
+}
+
 }  // namespace
 }  // namespace g6d

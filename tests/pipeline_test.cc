@@ -248,5 +248,77 @@ TEST_F(PipelineTest, TinyBudgetGivesAValidPoseMarkedCutShort) {
   EXPECT_EQ(a.score, b.score);
 }
 
+// Issue 13's speed changes, each switched off in turn: every variant still finds the pose,
+// and the default ICP schedule needs fewer ICP iterations than the paper's (point-to-point
+// on the full source until the step is below 10 um).
+TEST_F(PipelineTest, EachSpeedChangeKeepsTheAnswerAndTheScheduleSavesIcpIterations) {
+  GlRenderer renderer(*mesh_);
+  std::mt19937_64 rng(31);
+  ThreadPool pool(2);
+  std::vector<std::pair<std::string, SolverOptions>> variants = {{"default", SolverOptions()}};
+  auto add = [&](const std::string& name, auto change) {
+    SolverOptions options;
+    change(&options);
+    variants.emplace_back(name, options);
+  };
+  add("no merge", [](SolverOptions* o) { o->merge_pnp_poses = false; });
+  add("no culling", [](SolverOptions* o) { o->cull_backfaces = false; });
+  add("online mesh for selection", [](SolverOptions* o) { o->coarse_selection_mesh = false; });
+  add("ICP probing", [](SolverOptions* o) { o->icp_probe_iterations = 6; });
+  add("paper's ICP", [](SolverOptions* o) {
+    o->icp_coarse_points = 0;
+    o->icp.point_to_plane = false;
+    o->icp.stall_window = 0;
+  });
+  long default_iterations = 0, paper_iterations = 0;
+  for (int trial = 0; trial < 3; ++trial) {
+    const Eigen::Isometry3d truth = test::RandomPose(kCamera, 0.5, 0.8, &rng);
+    test::SyntheticOptions view_options;
+    view_options.seed = 300 + static_cast<uint64_t>(trial);
+    const test::SyntheticView view = test::RenderSyntheticView(&renderer, *mesh_, kCamera, truth, view_options);
+    for (const auto& [name, options] : variants) {
+      const PoseResult result = EstimatePose(MakeFrame(view), {"box", view.mask}, *bank_, options, &pool);
+      ASSERT_TRUE(result.success) << name << ": " << result.message;
+      const double error = ComputeAdd(result.cam_from_object, truth, mesh_->vertices);
+      EXPECT_LT(error, 0.1 * bank_->diameter_m) << name << ", trial " << trial;
+      const StageReport& s = result.stages;
+      EXPECT_EQ(s.pnp_poses.size(), static_cast<size_t>(s.pnp_hypotheses));
+      EXPECT_GE(s.pnp_merged, 0);
+      if (!options.merge_pnp_poses) EXPECT_EQ(s.pnp_merged, 0) << name;
+      if (name == "default") default_iterations += s.icp_iterations;
+      if (name == "paper's ICP") paper_iterations += s.icp_iterations;
+    }
+  }
+  EXPECT_LT(default_iterations, paper_iterations);
+  std::cout << "ICP iterations over 3 solves: default " << default_iterations << ", paper's schedule "
+            << paper_iterations << "\n";
+}
+
+// The stage times are listed once, in pipeline order, for every report that prints them.
+TEST(StageTimes, NamesEveryStageInOrderAndSumsToAtMostTheTotal) {
+  StageReport s;
+  s.prepare_ms = 1;
+  s.features_ms = 2;
+  s.match_ms = 3;
+  s.pnp_ms = 4;
+  s.observable_ms = 5;
+  s.icp_ms = 6;
+  s.mhpo_ms = 7;
+  s.post_refine_ms = 8;
+  s.finalists_ms = 9;
+  s.total_ms = 50;
+  const std::vector<StageTime> times = StageTimes(s);
+  std::vector<std::string> names;
+  double sum = 0.0;
+  for (const StageTime& t : times) {
+    names.push_back(t.name);
+    if (names.back() != "total") sum += t.ms;
+  }
+  EXPECT_EQ(names, (std::vector<std::string>{"prepare", "features", "match", "pnp", "observable", "icp", "mhpo",
+                                             "post_refine", "finalists", "total"}));
+  EXPECT_EQ(sum, 45.0);
+  EXPECT_EQ(times.back().ms, 50.0);
+}
+
 }  // namespace
 }  // namespace g6d

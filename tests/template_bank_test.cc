@@ -10,8 +10,11 @@
 #include <gtest/gtest.h>
 
 #include "core/error.h"
+#include "core/se3.h"
 #include "mesh/mesh.h"
 #include "templates/cache.h"
+#include "render/raster.h"
+#include "test_meshes.h"
 #include "test_util.h"
 
 namespace g6d {
@@ -202,6 +205,60 @@ TEST(BuildTemplateBank, BadArgumentsThrow) {
   EXPECT_THROW(BuildTemplateBank(mesh, "x", options, &executor), Error);
   EXPECT_THROW(BuildTemplateBank(mesh, "x", FewViews(), nullptr), Error);
   EXPECT_THROW(BuildTemplateBank(Mesh(), "x", FewViews(), &executor), Error);
+}
+
+// The derived meshes of a bank: a coarse selection mesh that keeps the silhouette, and the
+// closed-and-outward flags that make back-face culling safe.
+TEST(DeriveOnlineMeshes, CoarseSilhouetteMatchesAndCullingIsExactOnClosedMeshes) {
+  using test::AxisAngle;
+  using test::MakeCube;
+  using test::MakeUvSphere;
+  using test::MaskIoU;
+  TemplateBank bank;
+  bank.online_mesh = MakeUvSphere(0.05, 40, 60);  // 4680 faces
+  ASSERT_GT(static_cast<int>(bank.online_mesh.faces.size()), kSelectionMeshFaces);
+  DeriveOnlineMeshes(&bank);
+  EXPECT_TRUE(bank.online_mesh_closed);
+  ASSERT_FALSE(bank.selection_mesh.faces.empty());
+  EXPECT_LE(static_cast<int>(bank.selection_mesh.faces.size()), kSelectionMeshFaces);
+  EXPECT_TRUE(bank.selection_mesh_closed);
+
+  // On a 96 px grid (observable selection) the coarse silhouette is the online one within
+  // a pixel's width around the rim, and culling changes no pixel of either mesh.
+  const Camera camera{140.0, 140.0, 48.0, 48.0, 96, 96};
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> angle(-3.0, 3.0);
+  for (int trial = 0; trial < 5; ++trial) {
+    const Eigen::Isometry3d pose =
+        MakePose(AxisAngle(angle(rng), Eigen::Vector3d(angle(rng), angle(rng), 1.0)), Eigen::Vector3d(0.0, 0.0, 0.25));
+    RasterOptions culled;
+    culled.cull_backfaces = true;
+    RasterImage fine, fine_culled, coarse, coarse_culled;
+    Rasterize(bank.online_mesh, camera, pose, {}, &fine);
+    Rasterize(bank.online_mesh, camera, pose, culled, &fine_culled);
+    Rasterize(bank.selection_mesh, camera, pose, {}, &coarse);
+    Rasterize(bank.selection_mesh, camera, pose, culled, &coarse_culled);
+    EXPECT_EQ(cv::norm(fine.depth, fine_culled.depth, cv::NORM_INF), 0.0);
+    EXPECT_EQ(cv::norm(coarse.depth, coarse_culled.depth, cv::NORM_INF), 0.0);
+    EXPECT_GT(MaskIoU(fine.Mask(), coarse.Mask()), 0.97) << "trial " << trial;
+  }
+
+  // Inward faces or a hole: culling would change renderings, so it is not allowed.
+  TemplateBank inverted;
+  inverted.online_mesh = MakeCube(0.04);
+  for (auto& face : inverted.online_mesh.faces) std::swap(face[1], face[2]);
+  DeriveOnlineMeshes(&inverted);
+  EXPECT_FALSE(inverted.online_mesh_closed);
+  EXPECT_TRUE(inverted.selection_mesh.faces.empty());  // 12 faces: nothing to coarsen
+  TemplateBank open;
+  open.online_mesh = MakeCube(0.04);
+  open.online_mesh.faces.pop_back();
+  DeriveOnlineMeshes(&open);
+  EXPECT_FALSE(open.online_mesh_closed);
+  TemplateBank outward;
+  outward.online_mesh = MakeCube(0.04);
+  DeriveOnlineMeshes(&outward);
+  EXPECT_TRUE(outward.online_mesh_closed);
 }
 
 }  // namespace
