@@ -51,7 +51,7 @@ struct Tally {
 int main(int argc, char** argv) {
   CLI::App app{"g6d-bench-dataset: solver accuracy and latency on a BOP dataset (GT visible masks)"};
   std::string dataset_dir, caches_dir, targets_file, out_csv;
-  int hypotheses = 18, threads = 2, limit = 0, every = 1, pnp_iterations = 0;
+  int hypotheses = g6d::SolverOptions().num_hypotheses, threads = 2, limit = 0, every = 1, pnp_iterations = 0;
   bool no_mhpo = false, no_icp = false, prosac = false, no_lo = false, oracle = false;
   std::string records_csv;
   app.add_option("--dataset", dataset_dir, "BOP dataset folder (models/, test/, ...)")->required();

@@ -67,7 +67,7 @@ int main(int argc, char** argv) {
   CLI::App app{"g6d-solve: estimate one object's 6D pose from RGB-D + mask files"};
   std::string cache_path, rgb_path, depth_path, mask_path, k_text, overlay_path, json_path;
   double depth_scale_mm = 1.0;
-  int hypotheses = 18, threads = 2;
+  int hypotheses = g6d::SolverOptions().num_hypotheses, threads = 2;
   bool no_mhpo = false;
   app.add_option("--cache", cache_path, "template cache file (g6d-build-templates)")->required();
   app.add_option("--rgb", rgb_path, "colour image (PNG/JPEG)")->required();
@@ -77,6 +77,8 @@ int main(int argc, char** argv) {
   app.add_option("--K", k_text, "intrinsics fx,fy,cx,cy in pixels (pixel centres at +0.5)")->required();
   app.add_option("--hypotheses", hypotheses, "K = N_H, hypotheses refined by ICP and MHPO")->capture_default_str();
   app.add_option("--threads", threads, "worker threads")->capture_default_str();
+  double budget_ms = 0.0;
+  app.add_option("--budget-ms", budget_ms, "time budget of the solve, ms (0 = none): when it runs out the best pose so far is returned, marked cut short")->check(CLI::NonNegativeNumber);
   app.add_flag("--no-mhpo", no_mhpo, "skip MHPO (ablation)");
   bool post_refine = false, allow_border = false, reject_border = false;
   app.add_flag("--post-refine", post_refine, "optional stage 6: retry a poor pose from flipped / re-centred hypotheses");
@@ -101,6 +103,7 @@ int main(int argc, char** argv) {
 
     g6d::SolverOptions options;
     options.num_hypotheses = hypotheses;
+    options.budget_ms = budget_ms;
     options.run_mhpo = !no_mhpo;
     options.post_refine = post_refine;
     if (allow_border && reject_border) G6D_THROW("--allow-border-masks and --reject-border-masks contradict each other");
@@ -133,8 +136,12 @@ int main(int argc, char** argv) {
                 s.query_features, s.correspondence_sets, s.best_quality, s.pnp_hypotheses, s.kept_hypotheses,
                 s.best_e_obs, s.icp_converged, s.best_s_after_icp, result.score);
     if (s.post_refine_ran) std::printf("post-refine %s\n", s.post_refine_accepted ? "accepted (lower S)" : "ran, T_A kept");
-    std::printf("time (ms)   prepare %.1f  features %.1f  match %.1f  pnp %.1f  observable %.1f  icp %.1f  mhpo %.1f  post-refine %.1f  total %.1f\n",
-                s.prepare_ms, s.features_ms, s.match_ms, s.pnp_ms, s.observable_ms, s.icp_ms, s.mhpo_ms, s.post_refine_ms, s.total_ms);
+    std::printf("time (ms)  ");
+    for (const g6d::StageTime& stage : g6d::StageTimes(s)) std::printf(" %s %.1f ", stage.name, stage.ms);
+    std::printf("\n");
+    std::printf("work        PnP sets %d, poses %d (%d merged as equal); ICP iterations %d\n", s.sets_tried,
+                s.pnp_hypotheses, s.pnp_merged, s.icp_iterations);
+    if (result.cut_short) std::printf("cut short   %s\n", result.message.c_str());
     if (!overlay_path.empty()) {
       cv::Mat overlay = bgr.clone();
       if (result.success) DrawOverlay(bank, frame.camera, result.cam_from_object, &overlay);
@@ -167,9 +174,8 @@ int main(int argc, char** argv) {
                      {"pnp_hypotheses", s.pnp_hypotheses}, {"kept_hypotheses", s.kept_hypotheses},
                      {"icp_converged", s.icp_converged}, {"best_e_obs", s.best_e_obs},
                      {"best_s_after_icp", s.best_s_after_icp}};
-      j["time_ms"] = {{"prepare", s.prepare_ms}, {"features", s.features_ms}, {"match", s.match_ms},
-                      {"pnp", s.pnp_ms}, {"observable", s.observable_ms}, {"icp", s.icp_ms},
-                      {"mhpo", s.mhpo_ms}, {"post_refine", s.post_refine_ms}, {"total", s.total_ms}};
+      j["cut_short"] = result.cut_short;
+      for (const g6d::StageTime& stage : g6d::StageTimes(s)) j["time_ms"][stage.name] = stage.ms;
       std::ofstream out(json_path);
       if (!out) G6D_THROW("--json: cannot write '" << json_path << "'");
       out << j.dump(2) << "\n";
