@@ -80,6 +80,7 @@ ABLATIONS=(
   "MHPO may stop before a round|--mhpo-min-rounds 0"
   "+ ICP probing (6 it., finish 6 best)|--icp-probe 6"
   "+ ICP source inside the mask only|--icp-source-in-mask"
+  "+ PnP only on sets with Q_j >= 0.5 Q_1|--pnp-min-quality 0.5"
 )
 
 for section in "${SECTIONS[@]}"; do
