@@ -70,7 +70,8 @@ run() {
 # The speed changes of issue 13 and the flag that undoes each (or enables it).
 ABLATIONS=(
   "default|"
-  "issue-12 pipeline (all changes off)|--no-merge-pnp --no-cull --full-selection-mesh --icp-coarse-points 0 --icp-point-to-point --icp-stall 0 --mhpo-min-rounds 0"
+  "issue-12 pipeline (all changes off)|--no-simd-match --no-merge-pnp --no-cull --full-selection-mesh --icp-coarse-points 0 --icp-point-to-point --icp-stall 0 --mhpo-min-rounds 0"
+  "portable matching loop (no AVX-512)|--no-simd-match"
   "PnP poses not merged|--no-merge-pnp"
   "no back-face culling|--no-cull"
   "online mesh for selection|--full-selection-mesh"

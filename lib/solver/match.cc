@@ -7,6 +7,10 @@
 
 #include "core/camera.h"
 
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#endif
+
 namespace g6d {
 
 std::string MatchOptions::Check() const {
@@ -56,6 +60,65 @@ void NearestDescriptors(const std::vector<Words>& query, const std::vector<Words
   }
 }
 
+
+// The query descriptors as four planes of 64-bit words (word w of descriptor i at
+// words[w][i]), zero-padded to a multiple of 8 descriptors.
+struct QueryPlanes {
+  std::vector<uint64_t> words[4];
+  size_t count = 0;
+};
+
+QueryPlanes MakeQueryPlanes(const std::vector<Words>& query) {
+  QueryPlanes planes;
+  planes.count = query.size();
+  const size_t padded = (query.size() + 7) / 8 * 8;
+  for (int w = 0; w < 4; ++w) {
+    planes.words[w].assign(padded, 0);
+    for (size_t i = 0; i < query.size(); ++i) planes.words[w][i] = query[i].w[w];
+  }
+  return planes;
+}
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#define G6D_HAVE_AVX512_MATCH 1
+// NearestDescriptors with AVX-512 VPOPCNTDQ: eight query descriptors per register, the
+// template's descriptors in order; a lane takes a candidate only when strictly nearer, so
+// ties keep the first, exactly as the scalar loop (same result bit for bit).
+__attribute__((target("avx512f,avx512vpopcntdq"))) void NearestDescriptorsAvx512(
+    const QueryPlanes& query, const std::vector<Words>& candidates, int* best_distance, int* best_index) {
+  for (size_t i = 0; i < query.count; i += 8) {
+    const __m512i q0 = _mm512_loadu_si512(query.words[0].data() + i);
+    const __m512i q1 = _mm512_loadu_si512(query.words[1].data() + i);
+    const __m512i q2 = _mm512_loadu_si512(query.words[2].data() + i);
+    const __m512i q3 = _mm512_loadu_si512(query.words[3].data() + i);
+    __m512i best = _mm512_set1_epi64(257);
+    __m512i index = _mm512_set1_epi64(-1);
+    for (size_t k = 0; k < candidates.size(); ++k) {
+      const Words& c = candidates[k];
+      __m512i d = _mm512_popcnt_epi64(_mm512_xor_si512(q0, _mm512_set1_epi64(static_cast<long long>(c.w[0]))));
+      d = _mm512_add_epi64(d, _mm512_popcnt_epi64(_mm512_xor_si512(q1, _mm512_set1_epi64(static_cast<long long>(c.w[1])))));
+      d = _mm512_add_epi64(d, _mm512_popcnt_epi64(_mm512_xor_si512(q2, _mm512_set1_epi64(static_cast<long long>(c.w[2])))));
+      d = _mm512_add_epi64(d, _mm512_popcnt_epi64(_mm512_xor_si512(q3, _mm512_set1_epi64(static_cast<long long>(c.w[3])))));
+      const __mmask8 nearer = _mm512_cmplt_epi64_mask(d, best);
+      best = _mm512_mask_mov_epi64(best, nearer, d);
+      index = _mm512_mask_mov_epi64(index, nearer, _mm512_set1_epi64(static_cast<long long>(k)));
+    }
+    alignas(64) int64_t lane_best[8], lane_index[8];
+    _mm512_store_si512(lane_best, best);
+    _mm512_store_si512(lane_index, index);
+    for (size_t lane = 0; lane < 8 && i + lane < query.count; ++lane) {
+      best_distance[i + lane] = static_cast<int>(lane_best[lane]);
+      best_index[i + lane] = static_cast<int>(lane_index[lane]);
+    }
+  }
+}
+
+bool CpuHasAvx512Popcount() {
+  static const bool has = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vpopcntdq");
+  return has;
+}
+#endif
+
 }  // namespace
 
 int HammingDistance(const std::array<uint8_t, 32>& a, const std::array<uint8_t, 32>& b) {
@@ -79,6 +142,10 @@ void MatchTemplates(const MatchOptions& options, const std::vector<Feature>& que
   }
   std::vector<Words> query_words(query.size());
   for (size_t i = 0; i < query.size(); ++i) query_words[i] = Load(query[i].descriptor);
+#ifdef G6D_HAVE_AVX512_MATCH
+  const bool avx512 = options.simd && CpuHasAvx512Popcount();
+  const QueryPlanes query_planes = avx512 ? MakeQueryPlanes(query_words) : QueryPlanes();
+#endif
 
   const int num_templates = static_cast<int>(bank.templates.size());
   std::vector<CorrespondenceSet> all(static_cast<size_t>(num_templates));
@@ -87,7 +154,15 @@ void MatchTemplates(const MatchOptions& options, const std::vector<Feature>& que
     std::vector<Words> template_words(tmpl.descriptors.size());
     for (size_t k = 0; k < tmpl.descriptors.size(); ++k) template_words[k] = Load(tmpl.descriptors[k]);
     std::vector<int> best_distance(query_words.size()), best_index(query_words.size());
+#ifdef G6D_HAVE_AVX512_MATCH
+    if (avx512) {
+      NearestDescriptorsAvx512(query_planes, template_words, best_distance.data(), best_index.data());
+    } else {
+      NearestDescriptors(query_words, template_words, best_distance.data(), best_index.data());
+    }
+#else
     NearestDescriptors(query_words, template_words, best_distance.data(), best_index.data());
+#endif
     CorrespondenceSet& set = all[static_cast<size_t>(j)];
     set.template_index = j;
     for (size_t i = 0; i < query_words.size(); ++i) {

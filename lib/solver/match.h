@@ -21,6 +21,9 @@ struct MatchOptions {
   int hamming_threshold = 64;   ///< τ_H: matches need δ < τ_H (bits of 256)
   int max_sets = 256;           ///< N_P: correspondence sets kept for PnP
   int min_correspondences = 6;  ///< templates with fewer matches are discarded
+  /// Use the AVX-512 (VPOPCNTDQ) distance loop where the CPU has it; false = the portable
+  /// loop. Both give the same result bit for bit.
+  bool simd = true;
 
   std::string Check() const;
 };
