@@ -135,9 +135,9 @@ struct SolverOptions {
   /// measured by scripts/accuracy.sh (scripts/calibrate_confidence.py on g6d-bench-dataset
   /// --records); the leave-one-object-out reliability tables and their limits are in
   /// bench/RESULTS.md.
-  double confidence_bias = 8.62;
-  double confidence_score_weight = -30.3;
-  double confidence_ambiguous_weight = -4.87;
+  double confidence_bias = 10.14;
+  double confidence_score_weight = -41.7;
+  double confidence_ambiguous_weight = -1.01;
 
   /// Empty when valid, else names the bad field.
   std::string Check() const;
