@@ -6,7 +6,7 @@
 #include <sstream>
 
 #include "core/error.h"
-#include "service/frame_codec.h"
+#include "wire/frame_codec.h"
 
 namespace g6d {
 namespace {

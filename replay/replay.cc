@@ -1,7 +1,5 @@
 #include "replay.h"
 
-#include <poll.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -19,6 +17,8 @@
 #include "core/error.h"
 #include "eval/bop.h"
 #include "frame_log.h"
+#include "wire/lcm_loop.h"
+#include "wire/names.h"
 
 namespace g6d {
 namespace {
@@ -30,52 +30,6 @@ int64_t WallClockUtime() {
              std::chrono::system_clock::now().time_since_epoch())
       .count();
 }
-
-// Runs lcm->handle() on its own thread: poll() on the LCM file descriptor and on a wake
-// pipe, so Stop() takes effect at once and nothing sleeps in a loop. LCM's descriptor
-// becomes readable only when a whole message is queued, so handle() never blocks here.
-class LcmHandleThread {
- public:
-  explicit LcmHandleThread(lcm::LCM* lcm) : lcm_(lcm) {
-    if (::pipe(wake_) != 0) G6D_THROW("cannot create a pipe: " << std::strerror(errno));
-    thread_ = std::thread([this] { Run(); });
-  }
-  ~LcmHandleThread() {
-    Stop();
-    ::close(wake_[0]);
-    ::close(wake_[1]);
-  }
-  LcmHandleThread(const LcmHandleThread&) = delete;
-  LcmHandleThread& operator=(const LcmHandleThread&) = delete;
-
-  void Stop() {
-    if (!thread_.joinable()) return;
-    const char byte = 1;
-    while (::write(wake_[1], &byte, 1) < 0 && errno == EINTR) {
-    }
-    thread_.join();
-  }
-
- private:
-  void Run() {
-    pollfd fds[2] = {{lcm_->getFileno(), POLLIN, 0}, {wake_[0], POLLIN, 0}};
-    while (true) {
-      if (::poll(fds, 2, -1) < 0) {
-        if (errno == EINTR) continue;
-        G6D_CHECK(false && "poll() on the LCM descriptor failed");
-      }
-      if (fds[1].revents != 0) return;
-      // A broken LCM descriptor would make poll() return at once forever; stop instead
-      // (the waiters then run into their timeouts and report lost frames).
-      if (fds[0].revents & (POLLERR | POLLHUP | POLLNVAL)) return;
-      if (fds[0].revents & POLLIN) lcm_->handle();
-    }
-  }
-
-  lcm::LCM* lcm_;
-  int wake_[2] = {-1, -1};
-  std::thread thread_;
-};
 
 // The frames sent so far and their answers, shared by the sending thread and the LCM
 // handle thread.
@@ -326,22 +280,6 @@ std::string ReplayModeName(const ReplayOptions& options) {
     }
   }
   return "unknown";
-}
-
-std::string EstimateStatusName(int8_t status) {
-  switch (status) {
-    case pose_estimate_t::STATUS_OK:
-      return "ok";
-    case pose_estimate_t::STATUS_NO_SOLUTION:
-      return "no_solution";
-    case pose_estimate_t::STATUS_BAD_INPUT:
-      return "bad_input";
-    case pose_estimate_t::STATUS_UNKNOWN_OBJECT:
-      return "unknown_object";
-    case pose_estimate_t::STATUS_INTERNAL_ERROR:
-      return "internal_error";
-  }
-  return "unknown(" + std::to_string(status) + ")";
 }
 
 ReplayReport RunReplay(const ReplayOptions& options, FrameLogReader* reader, lcm::LCM* lcm,

@@ -21,6 +21,7 @@
 #include "g6d/pose_array_t.hpp"
 #include "g6d/rgbd_frame_t.hpp"
 #include "g6d/service_status_t.hpp"
+#include "wire/names.h"  // EstimateStatusName() names the statuses in reports
 
 namespace lcm {
 class LCM;
@@ -128,9 +129,6 @@ ReplayReport RunReplay(const ReplayOptions& options, FrameLogReader* reader, lcm
 bool WaitForService(lcm::LCM* lcm, const std::string& status_channel,
                     const std::string& input_channel, int timeout_ms,
                     service_status_t* status = nullptr);
-
-/// The name of an estimate status in reports: "ok", "no_solution", ...
-std::string EstimateStatusName(int8_t status);
 
 /// The BOP results rows of the answered frames: one row per estimate with status OK and a
 /// BOP object id ("obj_000005" -> 5), scene_id and im_id from the answer, score = the

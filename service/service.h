@@ -31,11 +31,12 @@
 #include "core/stats.h"
 #include "g6d/pose_array_t.hpp"
 #include "g6d/service_status_t.hpp"
-#include "service/answer.h"
-#include "service/frame_codec.h"
 #include "service/mailbox.h"
 #include "service/service_options.h"
 #include "service/template_store.h"
+#include "wire/answer.h"
+#include "wire/frame_codec.h"
+#include "wire/lcm_loop.h"
 
 namespace g6d {
 
@@ -90,7 +91,6 @@ class Service {
     double decode_s = 0.0;       ///< LCM decode + validation + image decoding
   };
 
-  void LcmLoop();
   void SchedulerLoop();
   void StatusLoop();
   /// The raw LCM handler: never throws (LCM calls it from C).
@@ -115,9 +115,9 @@ class Service {
   std::unique_ptr<ThreadPool> pool_;
   LatestMailbox<Job> mailbox_;
   lcm::Subscription* subscription_ = nullptr;
-  int wake_fd_ = -1;  ///< eventfd that wakes the LCM thread on Stop()
 
-  std::thread lcm_thread_, scheduler_thread_, status_thread_;
+  std::unique_ptr<LcmHandleThread> lcm_thread_;  ///< the only caller of lcm_->handle()
+  std::thread scheduler_thread_, status_thread_;
   std::mutex lifecycle_mutex_;  ///< serializes Start() and Stop()
   bool started_ = false, stopped_ = false;
   std::atomic<bool> abandon_{false};  ///< instances not yet started are abandoned
@@ -135,8 +135,5 @@ class Service {
   Clock::time_point last_reject_log_;
   int64_t unlogged_rejects_ = 0;
 };
-
-/// Escapes regular-expression characters: LCM subscribes by regex, channels are literal.
-std::string LcmChannelRegex(const std::string& channel);
 
 }  // namespace g6d

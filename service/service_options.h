@@ -6,7 +6,7 @@
 
 #include <string>
 
-#include "service/frame_codec.h"
+#include "wire/frame_codec.h"
 #include "solver/pipeline.h"
 
 namespace g6d {

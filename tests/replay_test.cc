@@ -17,6 +17,7 @@
 #include <fstream>
 #include <lcm/lcm-cpp.hpp>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -30,9 +31,10 @@
 #include "frame_log.h"
 #include "g6d/service_status_t.hpp"
 #include "process_util.h"
-#include "service/frame_codec.h"
 #include "synthetic_bop.h"
 #include "test_util.h"
+#include "wire/frame_codec.h"
+#include "wire/lcm_loop.h"
 
 namespace g6d {
 namespace {
@@ -425,13 +427,7 @@ class AnswerListener {
       : lcm_(url) {
     lcm_.subscribe(results_channel, &AnswerListener::HandleAnswer, this);
     lcm_.subscribe(status_channel, &AnswerListener::HandleStatus, this);
-    thread_ = std::thread([this] {
-      while (!stop_) lcm_.handleTimeout(50);
-    });
-  }
-  ~AnswerListener() {
-    stop_ = true;
-    thread_.join();
+    if (lcm_.good()) handle_thread_ = std::make_unique<LcmHandleThread>(&lcm_);
   }
 
   bool good() { return lcm_.good(); }
@@ -461,12 +457,11 @@ class AnswerListener {
 
  private:
   lcm::LCM lcm_;
-  std::atomic<bool> stop_{false};
   std::mutex mutex_;
   std::condition_variable changed_;
   std::vector<pose_array_t> answers_;
   int loaded_objects_ = 0;
-  std::thread thread_;
+  std::unique_ptr<LcmHandleThread> handle_thread_;  ///< last: stops first
 };
 
 // bop2lcm -> log -> g6d-replay (wait) -> the real g6d-service -> CSV: ids preserved exactly,
@@ -623,6 +618,7 @@ TEST(ReplayEndToEnd, SyntheticBopThroughTheRealService) {
         (rows[i].cam_from_object.translation() - expected[i].cam_from_object.translation()).norm(),
         1e-12);
   }
+
 }
 
 }  // namespace

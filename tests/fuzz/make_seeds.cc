@@ -31,7 +31,7 @@
 #include "core/error.h"
 #include "eval/bop_csv.h"
 #include "g6d/rgbd_frame_t.hpp"
-#include "service/frame_codec.h"
+#include "wire/frame_codec.h"
 #include "templates/cache.h"
 #include "test_meshes.h"
 

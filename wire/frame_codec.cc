@@ -1,4 +1,4 @@
-#include "service/frame_codec.h"
+#include "wire/frame_codec.h"
 
 #include <zstd.h>
 
@@ -263,42 +263,6 @@ int OpenCvTypeOf(int8_t pixel_format) {
       return CV_32FC1;
     default:
       return -1;
-  }
-}
-
-std::string PixelFormatName(int8_t pixel_format) {
-  switch (pixel_format) {
-    case image_t::FORMAT_RGB8:
-      return "RGB8";
-    case image_t::FORMAT_BGR8:
-      return "BGR8";
-    case image_t::FORMAT_MONO8:
-      return "MONO8";
-    case image_t::FORMAT_DEPTH_U16:
-      return "DEPTH_U16";
-    case image_t::FORMAT_DEPTH_F32:
-      return "DEPTH_F32";
-    case image_t::FORMAT_LABEL_U8:
-      return "LABEL_U8";
-    case image_t::FORMAT_LABEL_U16:
-      return "LABEL_U16";
-    default:
-      return "unknown(" + std::to_string(pixel_format) + ")";
-  }
-}
-
-std::string CompressionName(int8_t compression) {
-  switch (compression) {
-    case image_t::COMPRESSION_NONE:
-      return "NONE";
-    case image_t::COMPRESSION_ZSTD:
-      return "ZSTD";
-    case image_t::COMPRESSION_PNG:
-      return "PNG";
-    case image_t::COMPRESSION_JPEG:
-      return "JPEG";
-    default:
-      return "unknown(" + std::to_string(compression) + ")";
   }
 }
 

@@ -20,7 +20,8 @@
 
 #include "g6d/image_t.hpp"
 #include "g6d/rgbd_frame_t.hpp"
-#include "solver/observation.h"
+#include "core/frame.h"
+#include "wire/names.h"
 
 namespace g6d {
 
@@ -51,12 +52,6 @@ int BytesPerPixel(int8_t pixel_format);
 /// The OpenCV type a pixel format decodes to (CV_8UC3, CV_8UC1, CV_16UC1, CV_32FC1); -1
 /// for an unknown format.
 int OpenCvTypeOf(int8_t pixel_format);
-
-/// "RGB8", "DEPTH_U16", ... or "unknown(<value>)".
-std::string PixelFormatName(int8_t pixel_format);
-
-/// "NONE", "ZSTD", "PNG", "JPEG" or "unknown(<value>)".
-std::string CompressionName(int8_t compression);
 
 /// Encodes `image` into an image_t. `image` type must match pixel_format: FORMAT_RGB8/BGR8 ->
 /// CV_8UC3, FORMAT_MONO8 and FORMAT_LABEL_U8 -> CV_8UC1, FORMAT_DEPTH_U16 and FORMAT_LABEL_U16 ->
