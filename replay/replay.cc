@@ -282,6 +282,25 @@ std::string ReplayModeName(const ReplayOptions& options) {
   return "unknown";
 }
 
+void WriteAnswersLog(const std::string& path, const std::string& channel,
+                     const std::vector<ReplayedFrame>& frames) {
+  lcm::LogFile log(path, "w");
+  if (!log.good()) G6D_THROW("cannot write the answers log '" << path << "'");
+  int64_t number = 0;
+  for (const ReplayedFrame& frame : frames) {
+    if (!frame.answered) continue;
+    std::vector<uint8_t> bytes(static_cast<size_t>(frame.answer.getEncodedSize()));
+    G6D_CHECK(frame.answer.encode(bytes.data(), 0, static_cast<int>(bytes.size())) >= 0);
+    lcm::LogEvent event;
+    event.eventnum = number++;
+    event.timestamp = frame.answer.utime;
+    event.channel = channel;
+    event.datalen = static_cast<int32_t>(bytes.size());
+    event.data = bytes.data();
+    if (log.writeEvent(&event) != 0) G6D_THROW("cannot write to the answers log '" << path << "'");
+  }
+}
+
 ReplayReport RunReplay(const ReplayOptions& options, FrameLogReader* reader, lcm::LCM* lcm,
                        int64_t total_frames, const ReplayProgressCallback& progress) {
   const std::string bad = options.Check();

@@ -130,6 +130,13 @@ bool WaitForService(lcm::LCM* lcm, const std::string& status_channel,
                     const std::string& input_channel, int timeout_ms,
                     service_status_t* status = nullptr);
 
+/// Writes the answers of the answered frames, in send order, as an LCM event log (the
+/// lcm-logger format, readable by lcm-logplayer and examples/print_poses.py): one event
+/// per answer on `channel`, timestamped with the answer's publication utime. Throws
+/// g6d::Error when the file cannot be written.
+void WriteAnswersLog(const std::string& path, const std::string& channel,
+                     const std::vector<ReplayedFrame>& frames);
+
 /// The BOP results rows of the answered frames: one row per estimate with status OK and a
 /// BOP object id ("obj_000005" -> 5), scene_id and im_id from the answer, score = the
 /// confidence (BOP's greedy matching prefers high scores; S_A is lower-is-better and not

@@ -98,7 +98,7 @@ int main(int argc, char** argv) {
       "g6d-replay: feed an LCM log of g6d_rgbd_frame_t to a running g6d-service and collect its "
       "answers"};
   std::string log_path, lcm_url, mode = "wait", results_csv, summary_json, estimates_jsonl,
-                                 status_channel = "G6D_STATUS";
+      answers_log, status_channel = "G6D_STATUS";
   int wait_for_service_ms = 0;
   g6d::ReplayOptions options;
   app.add_option("--log", log_path, "LCM log of g6d_rgbd_frame_t (e.g. from g6d-bop2lcm)")
@@ -123,6 +123,9 @@ int main(int argc, char** argv) {
   app.add_option("--estimates-jsonl", estimates_jsonl,
                  "JSON lines to write, one per estimate: ids, status, S_A, confidence, IoU, "
                  "solve time, pose");
+  app.add_option("--answers-log", answers_log,
+                 "LCM log to write with every answer received (g6d_pose_array_t on the results "
+                 "channel; lcm-logger's format, e.g. for examples/print_poses.py)");
   app.add_option(
          "--wait-for-service-ms", wait_for_service_ms,
          "first wait (at most this long) for a status of the service serving --channel; 0 = "
@@ -182,6 +185,8 @@ int main(int argc, char** argv) {
       WriteText(summary_json, g6d::ReplaySummaryJson(options, reader.stats(), report));
     if (!estimates_jsonl.empty())
       WriteText(estimates_jsonl, g6d::EstimatesJsonLines(report.frames));
+    if (!answers_log.empty())
+      g6d::WriteAnswersLog(answers_log, options.results_channel, report.frames);
 
     const int64_t ok =
         report.estimates_by_status.count("ok") ? report.estimates_by_status.at("ok") : 0;

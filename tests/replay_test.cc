@@ -509,12 +509,13 @@ TEST(ReplayEndToEnd, SyntheticBopThroughTheRealService) {
       << service_log();
 
   const std::string csv = dir + "/results.csv", summary_path = dir + "/summary.json",
-                    jsonl = dir + "/estimates.jsonl";
+                    jsonl = dir + "/estimates.jsonl", answers_log = dir + "/answers.lcmlog";
   const test::CommandResult replay =
       test::RunCommand(kReplay + " --log " + log_path +
                        " --channel E2E_RGBD --results-channel E2E_POSES --lcm-url '" + url +
                        "' --mode wait --timeout-ms 60000 --results-csv " + csv +
-                       " --summary-json " + summary_path + " --estimates-jsonl " + jsonl);
+                       " --summary-json " + summary_path + " --estimates-jsonl " + jsonl +
+                       " --answers-log " + answers_log);
   ASSERT_EQ(replay.exit_code, 0) << replay.output << "\nservice log:\n" << service_log();
   EXPECT_EQ(service.Stop(), 0) << "g6d-service should exit 0 on SIGTERM; its log:\n"
                                << service_log();
@@ -619,6 +620,42 @@ TEST(ReplayEndToEnd, SyntheticBopThroughTheRealService) {
         1e-12);
   }
 
+  // examples/print_poses.py reads the answers g6d-replay logged (lcm-logger's format) with
+  // the generated pure-Python classes and prints each one's object, pose, S_A, confidence.
+  const std::string python_types = test::BinaryDir() + "/lcmtypes/python";
+  ASSERT_TRUE(std::filesystem::exists(python_types + "/g6d/pose_array_t.py")) << python_types;
+  const test::CommandResult printed = test::RunCommand(
+      "python3 " + test::SourceDir() + "/examples/print_poses.py --log " + answers_log +
+      " --channel E2E_POSES --types " + python_types);
+  ASSERT_EQ(printed.exit_code, 0) << printed.output;
+  EXPECT_THAT(printed.output, HasSubstr("2 answers on E2E_POSES"));
+  int printed_ok = 0;
+  for (const pose_array_t& answer : answers) {
+    for (const pose_estimate_t& estimate : answer.estimates) {
+      if (estimate.status != pose_estimate_t::STATUS_OK) {
+        EXPECT_THAT(printed.output, HasSubstr(estimate.object_id + " label " +
+                                              std::to_string(estimate.label) + ": "));
+        continue;
+      }
+      char line[512];
+      std::snprintf(line, sizeof(line),
+                    "%s label %d: ok t = [%.4f %.4f %.4f] m  q = [%.5f %.5f %.5f %.5f]  "
+                    "S_A = %.4f  confidence = %.3f",
+                    estimate.object_id.c_str(), estimate.label, estimate.position[0],
+                    estimate.position[1], estimate.position[2], estimate.orientation[0],
+                    estimate.orientation[1], estimate.orientation[2], estimate.orientation[3],
+                    estimate.score, estimate.confidence);
+      EXPECT_THAT(printed.output, HasSubstr(line));
+      ++printed_ok;
+    }
+  }
+  EXPECT_EQ(printed_ok, static_cast<int>(expected.size()));
+  // Not an LCM log: a clear error, exit status 1.
+  const test::CommandResult not_a_log = test::RunCommand(
+      "python3 " + test::SourceDir() + "/examples/print_poses.py --log " + csv + " --types " +
+      python_types);
+  EXPECT_EQ(not_a_log.exit_code, 1);
+  EXPECT_THAT(not_a_log.output, HasSubstr("not an LCM log"));
 }
 
 }  // namespace
