@@ -9,6 +9,7 @@
 #include <cstring>
 #include <sstream>
 
+#include "bot_core/rigid_transform_t.hpp"
 #include "core/error.h"
 
 namespace g6d {
@@ -63,8 +64,9 @@ void Service::Start() {
   status_thread_ = std::thread([this] { StatusLoop(); });
   lcm_thread_ = std::make_unique<LcmHandleThread>(
       lcm_, [](const std::string& reason) { spdlog::error("LCM thread: {}", reason); });
-  spdlog::info("serving '{}' -> '{}' (status '{}'), {} workers, K = {}, objects: {}",
-               options_.input_channel, options_.output_channel, options_.status_channel,
+  spdlog::info("serving '{}' ({}) -> '{}' (status '{}'), {} workers, K = {}, objects: {}",
+               options_.input_channel, InputTypeName(options_.input_type),
+               options_.output_channel, options_.status_channel,
                options_.workers, solver_options_.num_hypotheses, JoinIds(store_.ObjectIds()));
 }
 
@@ -119,9 +121,10 @@ void Service::HandleMessage(const void* data, int64_t size, Clock::time_point re
   FrameHeader header;
   rgbd_frame_t message;
   try {
-    message = DecodeRgbdFrameMessage(data, size);
+    // The g6d type as it is; Drake and bot_core images through their adapters.
+    message = AdaptMessage(options_.input_type, data, size, options_.adapter, options_.limits,
+                           input_seq_.fetch_add(1), &header);
   } catch (const Error& e) {
-    PeekRgbdFrameIds(data, size, &header.utime, &header.seq);
     Reject(header, e.what(), received, SecondsBetween(received, Clock::now()));
     return;
   }
@@ -268,6 +271,7 @@ void Service::ProcessJob(const Job& job) {
   processed_.fetch_add(1);
   RecordLatency(answer.total_s);
   Publish(options_.output_channel, answer);
+  if (options_.publish_rigid_transforms) PublishRigidTransforms(answer);
 }
 
 // ---- Status -------------------------------------------------------------------------------
@@ -347,6 +351,18 @@ void Service::RecordLatency(double total_s) {
 
 void Service::Publish(const std::string& channel, const pose_array_t& answer) {
   if (lcm_->publish(channel, &answer) != 0) spdlog::warn("publish on '{}' failed", channel);
+}
+
+void Service::PublishRigidTransforms(const pose_array_t& answer) {
+  for (const pose_estimate_t& estimate : answer.estimates) {
+    if (estimate.status != pose_estimate_t::STATUS_OK) continue;
+    bot_core::rigid_transform_t transform;
+    transform.utime = answer.source_utime;  // the time of the image the pose is about
+    std::copy(estimate.position, estimate.position + 3, transform.trans);
+    std::copy(estimate.orientation, estimate.orientation + 4, transform.quat);
+    const std::string channel = options_.rigid_transform_prefix + estimate.object_id;
+    if (lcm_->publish(channel, &transform) != 0) spdlog::warn("publish on '{}' failed", channel);
+  }
 }
 
 void Service::Publish(const std::string& channel, const service_status_t& status) {

@@ -103,6 +103,8 @@ class Service {
   bool IsStale(int64_t frame_utime) const;
   void Publish(const std::string& channel, const pose_array_t& answer);
   void Publish(const std::string& channel, const service_status_t& status);
+  /// bot_core.rigid_transform_t of every OK estimate (publish_rigid_transforms).
+  void PublishRigidTransforms(const pose_array_t& answer);
   void RecordLatency(double total_s);
 
   const ServiceOptions options_;
@@ -127,6 +129,7 @@ class Service {
   std::condition_variable status_wake_;
   bool status_stop_ = false;
 
+  std::atomic<int64_t> input_seq_{0};  ///< seq given to inputs that carry none (bot_core)
   std::atomic<int64_t> received_{0}, processed_{0}, dropped_{0}, stale_{0}, rejected_{0};
   std::atomic<bool> busy_{false};
   mutable std::mutex latency_mutex_;
