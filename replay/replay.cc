@@ -35,13 +35,15 @@ int64_t WallClockUtime() {
 // handle thread.
 class AnswerCollector {
  public:
-  explicit AnswerCollector(std::string results_channel)
-      : results_channel_(std::move(results_channel)) {}
+  // by_utime: answers are matched by the frame utime alone (foreign input types: their
+  // answers carry no source and, for bot_core, the service's own seq).
+  AnswerCollector(std::string results_channel, bool by_utime)
+      : results_channel_(std::move(results_channel)), by_utime_(by_utime) {}
 
   // Registers a frame before it is published (so its answer cannot arrive first).
   size_t Expect(const ReplayedFrame& frame) {
     std::lock_guard<std::mutex> lock(mutex_);
-    index_[{frame.source, frame.seq, frame.sent_utime}] = frames_.size();
+    index_[Key(frame.source, frame.seq, frame.sent_utime)] = frames_.size();
     frames_.push_back(frame);
     sent_at_.push_back(Clock::now());
     return frames_.size() - 1;
@@ -60,7 +62,7 @@ class AnswerCollector {
         ++undecodable_answers_;
         return;
       }
-      const auto it = index_.find({answer.source, answer.seq, answer.source_utime});
+      const auto it = index_.find(Key(answer.source, answer.seq, answer.source_utime));
       if (it == index_.end()) {
         ++unmatched_;
         return;
@@ -124,7 +126,14 @@ class AnswerCollector {
   }
 
  private:
+  std::tuple<std::string, int64_t, int64_t> Key(const std::string& source, int64_t seq,
+                                                int64_t utime) const {
+    if (by_utime_) return {"", 0, utime};
+    return {source, seq, utime};
+  }
+
   const std::string results_channel_;
+  const bool by_utime_;
   std::mutex mutex_;
   std::condition_variable changed_;
   std::vector<ReplayedFrame> frames_;
@@ -312,7 +321,8 @@ ReplayReport RunReplay(const ReplayOptions& options, FrameLogReader* reader, lcm
     if (progress) progress(collector.Progress(total_frames, last));
   };
 
-  AnswerCollector collector(options.results_channel);
+  const bool foreign = options.input_type != InputType::kG6d;
+  AnswerCollector collector(options.results_channel, /*by_utime=*/foreign);
   ReplayReport report;
   {
     // Destroyed in reverse order: the handle thread stops before the handler goes away.
@@ -339,10 +349,15 @@ ReplayReport RunReplay(const ReplayOptions& options, FrameLogReader* reader, lcm
           answered_seen = answered;
         }
       }
-      event.frame.utime = WallClockUtime();
+      // A g6d frame gets the send time as utime (so stale checks and latency see now); a
+      // foreign message goes out byte for byte as logged, matched by its own utime.
+      if (!foreign) event.frame.utime = WallClockUtime();
       const size_t slot = collector.Expect(Describe(event.frame));
       last_send = Clock::now();
-      if (lcm->publish(options.channel, &event.frame) != 0) {
+      if (foreign) {
+        if (lcm->publish(options.channel, event.raw.data(), static_cast<unsigned int>(event.raw.size())) != 0)
+          G6D_THROW("cannot publish event " << event.event_number << " on " << options.channel);
+      } else if (lcm->publish(options.channel, &event.frame) != 0) {
         G6D_THROW("cannot publish frame seq " << event.frame.seq << " on " << options.channel
                                               << " (message of " << event.frame.getEncodedSize()
                                               << " bytes)");
@@ -396,8 +411,9 @@ std::vector<BopEstimate> AnswersToBopEstimates(const std::vector<ReplayedFrame>&
         ++skipped;
         continue;
       }
-      row.scene_id = answer.scene_id;
-      row.im_id = answer.image_id;
+      // Foreign input types echo no ids: the request's (from the frame ids file) then.
+      row.scene_id = answer.scene_id >= 0 ? answer.scene_id : frame.scene_id;
+      row.im_id = answer.image_id >= 0 ? answer.image_id : frame.image_id;
       row.score = estimate.confidence;
       const Eigen::Quaterniond rotation(estimate.orientation[0], estimate.orientation[1],
                                         estimate.orientation[2], estimate.orientation[3]);

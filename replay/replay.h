@@ -21,6 +21,7 @@
 #include "g6d/pose_array_t.hpp"
 #include "g6d/rgbd_frame_t.hpp"
 #include "g6d/service_status_t.hpp"
+#include "wire/input_adapters.h"
 #include "wire/names.h"  // EstimateStatusName() names the statuses in reports
 
 namespace lcm {
@@ -48,6 +49,9 @@ struct ReplayOptions {
   /// How long to wait for the answer to a frame after sending it, milliseconds. In wait
   /// mode the next frame goes out after this; in the timed modes it bounds the final wait.
   int timeout_ms = 30000;
+  /// Message type of the log's frames: g6d frames are re-stamped and matched by source,
+  /// seq and utime; drake / bot_core messages are sent as logged and matched by utime.
+  InputType input_type = InputType::kG6d;
 
   /// Empty when valid, else names the bad field.
   std::string Check() const;

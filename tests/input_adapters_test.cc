@@ -149,6 +149,8 @@ TEST(AdaptMessage, DrakeZlibRgbaFloatDepthInt16Labels) {
   EXPECT_EQ(header.utime, 1234567);
   EXPECT_EQ(header.seq, 42);
   EXPECT_EQ(frame.source, "drake");
+  EXPECT_EQ(frame.scene_id, -1);  // no dataset ids in a Drake message
+  EXPECT_EQ(frame.image_id, -1);
   EXPECT_EQ(frame.camera_id, "color_camera");  // Drake's frame name of the colour image
   EXPECT_EQ(frame.fx, 60.0);
   EXPECT_EQ(frame.cy, 23.5);

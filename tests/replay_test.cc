@@ -658,5 +658,77 @@ TEST(ReplayEndToEnd, SyntheticBopThroughTheRealService) {
   EXPECT_THAT(not_a_log.output, HasSubstr("not an LCM log"));
 }
 
+// g6d-bop2lcm --as drake / bot_core writes the scene as those stacks' messages plus the
+// service options file LOG.yaml; the real g6d-service reads them with nothing but
+// --templates and --config LOG.yaml, g6d-replay --input-type matches the answers by utime,
+// and the BOP CSV is the native log's, row for row (lossless here: raw colour, and depth in
+// whole millimetres so bot_core's DEPTH_MM loses nothing).
+TEST(ReplayEndToEnd, DrakeAndBotCoreLogsGiveTheNativePoses) {
+  if (!std::filesystem::exists(kService)) GTEST_SKIP() << kService << " is not built";
+  const std::string dir = test::TempDir("replay_foreign");
+  test::SyntheticBopOptions bop_options;
+  bop_options.depth_scale = 1.0;
+  const test::SyntheticBop dataset = test::WriteSyntheticBopDataset(dir + "/tiny", bop_options);
+  std::filesystem::create_directories(dir + "/caches");
+  for (int obj_id : dataset.obj_ids) {
+    const std::string name = BopObjectName(obj_id);
+    const test::CommandResult build = test::RunCommand(
+        kBuildTemplates + " --mesh " + dir + "/tiny/models/" + name + ".ply --units mm --object-id " +
+        name + " --out " + dir + "/caches/" + name + ".g6dcache --views 72 --threads 2");
+    ASSERT_EQ(build.exit_code, 0) << build.output;
+  }
+  const int port = 20000 + static_cast<int>((::getpid() + 7) % 20000);
+  const std::string url =
+      "udpm://239.255.76.67:" + std::to_string(port) + "?ttl=0&recv_buf_size=4194304";
+
+  // One log per type, served by a service started from its LOG.yaml, replayed to a CSV.
+  auto run = [&](const std::string& as, const std::string& color) -> std::vector<BopEstimate> {
+    SCOPED_TRACE("--as " + as + " --color " + color);
+    const std::string log = dir + "/" + as + "_" + color + ".lcmlog";
+    const test::CommandResult convert =
+        test::RunCommand(kBop2Lcm + " --dataset " + dir + "/tiny --scene 1 --channel CAM --as " +
+                         as + " --color " + color + " --out " + log);
+    EXPECT_EQ(convert.exit_code, 0) << convert.output;
+    EXPECT_TRUE(std::filesystem::exists(log + ".yaml"));
+    AnswerListener listener(url, "F_POSES", "F_STATUS");
+    EXPECT_TRUE(listener.good());
+    test::ChildProcess service({kService, "--templates", dir + "/caches", "--config", log + ".yaml",
+                                "--output", "F_POSES", "--status", "F_STATUS", "--lcm-url", url},
+                               log + ".service.log");
+    EXPECT_TRUE(listener.WaitForService(2, std::chrono::seconds(60)));
+    const std::string csv = log + ".csv";
+    const test::CommandResult replay = test::RunCommand(
+        kReplay + " --log " + log + " --channel CAM --input-type " + as +
+        " --results-channel F_POSES --lcm-url '" + url + "' --timeout-ms 60000 --results-csv " + csv);
+    EXPECT_EQ(replay.exit_code, 0) << replay.output;
+    EXPECT_THAT(replay.output, HasSubstr("sent 2, answered 2, lost 0"));
+    EXPECT_EQ(service.Stop(), 0);
+    return ReadBopCsv(csv);
+  };
+  const std::vector<BopEstimate> native = run("g6d", "png");
+  ASSERT_GE(native.size(), 1u);
+  for (const std::string as : {"drake", "bot_core"}) {
+    const std::vector<BopEstimate> rows = run(as, "raw");
+    ASSERT_EQ(rows.size(), native.size()) << as;
+    for (size_t i = 0; i < rows.size(); ++i) {
+      SCOPED_TRACE(as + " row " + std::to_string(i));
+      EXPECT_EQ(rows[i].scene_id, native[i].scene_id);
+      EXPECT_EQ(rows[i].im_id, native[i].im_id);
+      EXPECT_EQ(rows[i].obj_id, native[i].obj_id);
+      EXPECT_EQ(rows[i].score, native[i].score);
+      EXPECT_EQ(rows[i].cam_from_object.linear(), native[i].cam_from_object.linear());
+      EXPECT_EQ(rows[i].cam_from_object.translation(), native[i].cam_from_object.translation());
+    }
+  }
+  // bot_core with MJPEG colour: every frame answered; the poses are JPEG's to move.
+  EXPECT_EQ(run("bot_core", "jpeg").size(), native.size());
+  // The options file of a foreign log says everything the service needs.
+  std::ifstream yaml(dir + "/drake_raw.lcmlog.yaml");
+  const std::string text((std::istreambuf_iterator<char>(yaml)), std::istreambuf_iterator<char>());
+  EXPECT_THAT(text, HasSubstr("input_type: drake"));
+  EXPECT_THAT(text, HasSubstr("camera: {fx: 572.39999999999998"));
+  EXPECT_THAT(text, HasSubstr("labels:\n  1: obj_000001\n  2: obj_000002\n"));
+}
+
 }  // namespace
 }  // namespace g6d

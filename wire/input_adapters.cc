@@ -247,6 +247,10 @@ rgbd_frame_t MakeFrame(const cv::Mat& rgb, const cv::Mat& depth, const cv::Mat& 
                    << options.camera.height << " but the colour image is " << rgb.cols << "x"
                    << rgb.rows);
   rgbd_frame_t frame;
+  frame.utime = 0;
+  frame.seq = -1;
+  frame.scene_id = -1;  // foreign messages carry no dataset ids
+  frame.image_id = -1;
   frame.fx = options.camera.fx;
   frame.fy = options.camera.fy;
   frame.cx = options.camera.cx;
