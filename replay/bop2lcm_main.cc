@@ -100,7 +100,8 @@ int main(int argc, char** argv) {
         "g6d-bop2lcm: %s scene %d: %d of %d images, %d instances -> %s (%.1f MB, %s colour, "
         "channel %s, as %s; service options %s.yaml) in %.1f s; %s\n",
         report.source.c_str(), scene_id, report.frames_written, report.images_in_scene,
-        report.instances_written, out.c_str(), report.bytes_written / 1e6, color.c_str(),
+        report.instances_written, out.c_str(),
+        static_cast<double>(std::filesystem::file_size(out)) / 1e6, color.c_str(),
         options.channel.c_str(), as.c_str(), out.c_str(), report.seconds, selection.c_str());
     return 0;
   } catch (const std::exception& e) {
