@@ -96,7 +96,8 @@ std::string ForeignLogOptions::Check() const {
 
 ForeignLogReport ConvertFrameLog(const std::string& g6d_log, const std::string& channel,
                                  const ForeignLogOptions& options, const std::string& out_log) {
-  if (const std::string bad = options.Check(); !bad.empty()) G6D_THROW("ForeignLogOptions: " << bad);
+  if (const std::string bad = options.Check(); !bad.empty())
+    G6D_THROW("ForeignLogOptions: " << bad);
   FrameLogReader reader(g6d_log, channel);
   lcm::LogFile out(out_log, "w");
   if (!out.good()) G6D_THROW("cannot write the LCM log '" << out_log << "'");
@@ -145,10 +146,10 @@ ForeignLogReport ConvertFrameLog(const std::string& g6d_log, const std::string& 
       message.header.seq = static_cast<int32_t>(frame.seq);
       message.header.utime = frame.utime;
       message.header.frame_name = frame.camera_id;
-      message.images = {DrakeImage(decoded.frame.rgb, I::PIXEL_FORMAT_RGB, I::CHANNEL_TYPE_UINT8, frame),
-                        DrakeImage(decoded.frame.depth, I::PIXEL_FORMAT_DEPTH,
-                                   I::CHANNEL_TYPE_FLOAT32, frame),
-                        DrakeImage(labels16, I::PIXEL_FORMAT_LABEL, I::CHANNEL_TYPE_INT16, frame)};
+      message.images = {
+          DrakeImage(decoded.frame.rgb, I::PIXEL_FORMAT_RGB, I::CHANNEL_TYPE_UINT8, frame),
+          DrakeImage(decoded.frame.depth, I::PIXEL_FORMAT_DEPTH, I::CHANNEL_TYPE_FLOAT32, frame),
+          DrakeImage(labels16, I::PIXEL_FORMAT_LABEL, I::CHANNEL_TYPE_INT16, frame)};
       message.num_images = 3;
       bytes = Encode(message);
     } else {
@@ -160,7 +161,8 @@ ForeignLogReport ConvertFrameLog(const std::string& g6d_log, const std::string& 
         cv::cvtColor(decoded.frame.rgb, bgr, cv::COLOR_RGB2BGR);
         std::vector<uint8_t> jpeg;
         cv::imencode(".jpg", bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, options.jpeg_quality});
-        message.images.push_back(BotImage(decoded.frame.rgb, I::PIXEL_FORMAT_MJPEG, jpeg, frame.utime));
+        message.images.push_back(
+            BotImage(decoded.frame.rgb, I::PIXEL_FORMAT_MJPEG, jpeg, frame.utime));
       } else {
         message.images.push_back(BotImage(decoded.frame.rgb, I::PIXEL_FORMAT_RGB,
                                           Bytes(decoded.frame.rgb), frame.utime));
@@ -185,8 +187,11 @@ ForeignLogReport ConvertFrameLog(const std::string& g6d_log, const std::string& 
     out_event.channel = channel;
     out_event.datalen = static_cast<int32_t>(bytes.size());
     out_event.data = bytes.data();
-    if (out.writeEvent(&out_event) != 0) G6D_THROW("cannot write to the LCM log '" << out_log << "'");
-    if (!report.ids.emplace(frame.utime, ForeignFrameIds{frame.source, frame.scene_id, frame.image_id}).second)
+    if (out.writeEvent(&out_event) != 0)
+      G6D_THROW("cannot write to the LCM log '" << out_log << "'");
+    if (!report.ids
+             .emplace(frame.utime, ForeignFrameIds{frame.source, frame.scene_id, frame.image_id})
+             .second)
       G6D_THROW(g6d_log << ": " << what << " has the utime of an earlier frame (" << frame.utime
                         << "); answers are matched by utime");
     ++report.frames;
@@ -206,7 +211,8 @@ std::string ServiceOptionsYamlFor(const std::string& channel, InputType type,
   yaml << "camera: {fx: " << Number(c.fx) << ", fy: " << Number(c.fy) << ", cx: " << Number(c.cx)
        << ", cy: " << Number(c.cy) << ", width: " << c.width << ", height: " << c.height << "}\n";
   yaml << "labels:\n";
-  for (const auto& [label, object_id] : report.labels) yaml << "  " << label << ": " << object_id << "\n";
+  for (const auto& [label, object_id] : report.labels)
+    yaml << "  " << label << ": " << object_id << "\n";
   return yaml.str();
 }
 

@@ -35,10 +35,10 @@ struct ForeignLogOptions {
 
 /// What ConvertFrameLog() wrote.
 struct ForeignLogReport {
-  int frames = 0;                     ///< events written
-  int instances = 0;                  ///< labelled instances over all frames
-  int dropped_instances = 0;          ///< second instances of an object in a frame
-  Camera camera;                      ///< the intrinsics of every frame
+  int frames = 0;                          ///< events written
+  int instances = 0;                       ///< labelled instances over all frames
+  int dropped_instances = 0;               ///< second instances of an object in a frame
+  Camera camera;                           ///< the intrinsics of every frame
   std::map<int32_t, std::string> labels;   ///< label value -> object id
   std::map<int64_t, ForeignFrameIds> ids;  ///< frame utime -> its ids
 };

@@ -191,16 +191,27 @@ void ExpectDrakeRefused(const std::function<void(drake::lcmt_image_array*)>& cha
 }
 
 TEST(AdaptMessage, DrakeBadImagesAreRefusedByName) {
-  ExpectDrakeRefused([](auto* a) { a->images.erase(a->images.begin()); a->num_images = 2; },
-                     "no LABEL image (instance labels) among the 2 images");
-  ExpectDrakeRefused([](auto* a) { a->images.pop_back(); a->num_images = 2; },
-                     "no DEPTH image among the 2 images");
-  ExpectDrakeRefused([](auto* a) { a->images[2].data[10] ^= 0xFF; }, "depth image: zlib data is corrupted");
-  ExpectDrakeRefused([](auto* a) { a->images[1].bigendian = true; }, "big-endian data is not supported");
+  ExpectDrakeRefused(
+      [](auto* a) {
+        a->images.erase(a->images.begin());
+        a->num_images = 2;
+      },
+      "no LABEL image (instance labels) among the 2 images");
+  ExpectDrakeRefused(
+      [](auto* a) {
+        a->images.pop_back();
+        a->num_images = 2;
+      },
+      "no DEPTH image among the 2 images");
+  ExpectDrakeRefused([](auto* a) { a->images[2].data[10] ^= 0xFF; },
+                     "depth image: zlib data is corrupted");
+  ExpectDrakeRefused([](auto* a) { a->images[1].bigendian = true; },
+                     "big-endian data is not supported");
   ExpectDrakeRefused([](auto* a) { a->images[1].compression_method = 9; },
                      "unknown compression_method 9");
-  ExpectDrakeRefused([](auto* a) { a->images[2].channel_type = drake::lcmt_image::CHANNEL_TYPE_INT32; },
-                     "expected FLOAT32 (metres) or UINT16 (mm)");
+  ExpectDrakeRefused(
+      [](auto* a) { a->images[2].channel_type = drake::lcmt_image::CHANNEL_TYPE_INT32; },
+      "expected FLOAT32 (metres) or UINT16 (mm)");
   AdapterOptions wrong_size = TestOptions();
   wrong_size.camera.width = 640;
   ExpectDrakeRefused([](auto*) {}, "the camera YAML says 640x48 but the colour image is 64x48",
@@ -261,8 +272,9 @@ bot_core::images_t BotImages(const Planes& planes, bool mjpeg, bool zip_depth) {
   cv::Mat depth_mm;
   planes.depth_m.convertTo(depth_mm, CV_16U, 1000.0);
   // Depth publishers mark zipped depth PIXEL_FORMAT_INVALID (-2) and raw depth LE_GRAY16.
-  images.images.push_back(zip_depth ? BotImage(depth_mm, I::PIXEL_FORMAT_INVALID, Zlib(Bytes(depth_mm)))
-                                    : BotImage(depth_mm, I::PIXEL_FORMAT_LE_GRAY16, Bytes(depth_mm)));
+  images.images.push_back(zip_depth
+                              ? BotImage(depth_mm, I::PIXEL_FORMAT_INVALID, Zlib(Bytes(depth_mm)))
+                              : BotImage(depth_mm, I::PIXEL_FORMAT_LE_GRAY16, Bytes(depth_mm)));
   images.image_types.push_back(zip_depth ? int16_t{bot_core::images_t::DEPTH_MM_ZIPPED}
                                          : int16_t{bot_core::images_t::DEPTH_MM});
   cv::Mat mask;
@@ -295,7 +307,8 @@ TEST(AdaptMessage, BotCoreMjpegZippedDepthAndMask) {
   // Colour is the JPEG's own pixels (decoded independently here), in RGB order.
   const bot_core::images_t sent = BotImages(planes, true, true);
   Planes expected = planes;
-  cv::cvtColor(cv::imdecode(sent.images[0].data, cv::IMREAD_COLOR), expected.rgb, cv::COLOR_BGR2RGB);
+  cv::cvtColor(cv::imdecode(sent.images[0].data, cv::IMREAD_COLOR), expected.rgb,
+               cv::COLOR_BGR2RGB);
   ExpectPlanes(decoded, expected, 0.0);
 }
 
@@ -321,10 +334,19 @@ TEST(AdaptMessage, BotCoreBadImagesAreRefusedByName) {
       EXPECT_THAT(e.what(), HasSubstr(words));
     }
   };
-  refused([](auto* m) { m->images.pop_back(); m->image_types.pop_back(); m->n_images = 2; },
-          "bot_core: no MASK_ZIPPED image (instance labels) among the 2 images");
-  refused([](auto* m) { m->images[0].data.resize(100); m->images[0].size = 100; },
-          "bot_core: LEFT image (MJPEG): corrupted JPEG payload");
+  refused(
+      [](auto* m) {
+        m->images.pop_back();
+        m->image_types.pop_back();
+        m->n_images = 2;
+      },
+      "bot_core: no MASK_ZIPPED image (instance labels) among the 2 images");
+  refused(
+      [](auto* m) {
+        m->images[0].data.resize(100);
+        m->images[0].size = 100;
+      },
+      "bot_core: LEFT image (MJPEG): corrupted JPEG payload");
   refused([](auto* m) { m->images[0].pixelformat = bot_core::image_t::PIXEL_FORMAT_UYVY; },
           "not a colour format g6d reads");
   refused([](auto* m) { m->images[1].data[5] ^= 0x55; }, "DEPTH_MM_ZIPPED image: zlib data");
@@ -334,7 +356,8 @@ TEST(AdaptMessage, BotCoreBadImagesAreRefusedByName) {
 // ---- YAML ------------------------------------------------------------------------------------
 
 TEST(ParseCameraYaml, PlainAndBotParamPinholeLayouts) {
-  const Camera plain = ParseCameraYaml("fx: 600\nfy: 601\ncx: 320.5\ncy: 240.5\nwidth: 640\nheight: 480\n", "cam.yaml");
+  const Camera plain = ParseCameraYaml(
+      "fx: 600\nfy: 601\ncx: 320.5\ncy: 240.5\nwidth: 640\nheight: 480\n", "cam.yaml");
   EXPECT_EQ(plain.fx, 600.0);
   EXPECT_EQ(plain.fy, 601.0);
   EXPECT_EQ(plain.cx, 320.5);
@@ -342,7 +365,8 @@ TEST(ParseCameraYaml, PlainAndBotParamPinholeLayouts) {
   EXPECT_EQ(plain.width, 640);
   EXPECT_EQ(plain.height, 480);
   const Camera pinhole = ParseCameraYaml(
-      "intrinsic_cal:\n  width: 640\n  height: 480\n  pinhole: [600, 601, 0, 320.5, 240.5]\n", "bot.yaml");
+      "intrinsic_cal:\n  width: 640\n  height: 480\n  pinhole: [600, 601, 0, 320.5, 240.5]\n",
+      "bot.yaml");
   EXPECT_EQ(pinhole.fx, 600.0);
   EXPECT_EQ(pinhole.fy, 601.0);
   EXPECT_EQ(pinhole.cx, 320.5);

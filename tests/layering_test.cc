@@ -22,10 +22,10 @@ namespace {
 namespace fs = std::filesystem;
 
 // lib/ folders are included as "core/...", "solver/...": they all belong to layer "lib".
-const std::set<std::string> kLibFolders = {"core",      "mesh",   "render", "templates",
-                                           "solver",    "eval",   "synthetic"};
-const std::vector<std::string> kLayers = {"lib", "wire", "service", "replay", "tools", "bench",
-                                          "tests"};
+const std::set<std::string> kLibFolders = {"core",   "mesh", "render",   "templates",
+                                           "solver", "eval", "synthetic"};
+const std::vector<std::string> kLayers = {"lib",   "wire",  "service", "replay",
+                                          "tools", "bench", "tests"};
 
 // The forbidden (from layer, to layer) pairs.
 const std::set<std::pair<std::string, std::string>> kForbidden = {

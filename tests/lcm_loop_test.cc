@@ -76,13 +76,11 @@ TEST(LcmHandleThread, DeliversMessagesOnItsOwnThreadUntilStopped) {
   ASSERT_EQ(bus.publish("G6D.STATUS", &later), 0);
   ASSERT_GT(bus.handleTimeout(10000), 0);
   EXPECT_THAT(recorder.WaitFor(3), testing::ElementsAre("G6D.STATUS:first", "G6D.STATUS:second",
-                                                         "G6D.STATUS:after stop"));
+                                                        "G6D.STATUS:after stop"));
   EXPECT_EQ(recorder.handler_thread(), std::this_thread::get_id());
 }
 
-TEST(LcmHandleThread, RefusesAnUnusableLcm) {
-  EXPECT_THROW(LcmHandleThread(nullptr), Error);
-}
+TEST(LcmHandleThread, RefusesAnUnusableLcm) { EXPECT_THROW(LcmHandleThread(nullptr), Error); }
 
 TEST(LcmChannelRegex, EscapesEveryRegexCharacter) {
   EXPECT_EQ(LcmChannelRegex("CAM_0"), "CAM_0");

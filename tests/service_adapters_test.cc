@@ -106,9 +106,10 @@ bot_core::images_t BotCoreMessage(const test::SyntheticView& view) {
   cv::threshold(view.mask, mask, 0, 1, cv::THRESH_BINARY);
   bot_core::images_t message;
   message.utime = 9000;
-  message.images = {BotImage(view.rgb, bot_core::image_t::PIXEL_FORMAT_MJPEG, jpeg),
-                    BotImage(depth_mm, bot_core::image_t::PIXEL_FORMAT_INVALID, Zlib(Bytes(depth_mm))),
-                    BotImage(mask, bot_core::image_t::PIXEL_FORMAT_GRAY, Zlib(Bytes(mask)))};
+  message.images = {
+      BotImage(view.rgb, bot_core::image_t::PIXEL_FORMAT_MJPEG, jpeg),
+      BotImage(depth_mm, bot_core::image_t::PIXEL_FORMAT_INVALID, Zlib(Bytes(depth_mm))),
+      BotImage(mask, bot_core::image_t::PIXEL_FORMAT_GRAY, Zlib(Bytes(mask)))};
   message.image_types = {int16_t{bot_core::images_t::LEFT},
                          int16_t{bot_core::images_t::DEPTH_MM_ZIPPED},
                          int16_t{bot_core::images_t::MASK_ZIPPED}};
@@ -228,9 +229,9 @@ TEST_F(ServiceAdapters, BotCoreMjpegImagesAreSolved) {
   EXPECT_EQ(answer.camera_id, "bot_core");
   ASSERT_EQ(answer.num_estimates, 1);
   ASSERT_EQ(answer.estimates[0].status, +pose_estimate_t::STATUS_OK) << answer.estimates[0].message;
-  EXPECT_LT(ComputeAdd(test::PoseOf(answer.estimates[0]), view.cam_from_object,
-                       scene_->mesh.vertices),
-            0.1 * scene_->bank.diameter_m);
+  EXPECT_LT(
+      ComputeAdd(test::PoseOf(answer.estimates[0]), view.cam_from_object, scene_->mesh.vertices),
+      0.1 * scene_->bank.diameter_m);
 }
 
 TEST_F(ServiceAdapters, BadForeignMessagesGetErrorAnswers) {

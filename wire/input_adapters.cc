@@ -74,8 +74,8 @@ std::string ReadCount(BigEndianReader* reader, const std::string& field, int64_t
 
 std::string FingerprintError(int64_t got, int64_t expected, const std::string& type) {
   std::ostringstream out;
-  out << "fingerprint 0x" << std::hex << static_cast<uint64_t>(got) << " is not " << type
-      << "'s 0x" << static_cast<uint64_t>(expected)
+  out << "fingerprint 0x" << std::hex << static_cast<uint64_t>(got) << " is not " << type << "'s 0x"
+      << static_cast<uint64_t>(expected)
       << " (another message type, a different definition of it, or garbage on the channel)";
   return out.str();
 }
@@ -89,7 +89,8 @@ std::string SkipDrakeHeader(BigEndianReader* reader, const std::string& field) {
 }  // namespace
 
 std::string CheckEncodedDrakeImageArray(const void* data, int64_t size) {
-  if (data == nullptr || size < 8) return "message of " + std::to_string(size) + " bytes is too short";
+  if (data == nullptr || size < 8)
+    return "message of " + std::to_string(size) + " bytes is too short";
   BigEndianReader reader(data, size);
   int64_t fingerprint = 0;
   reader.I64(&fingerprint);
@@ -114,7 +115,8 @@ std::string CheckEncodedDrakeImageArray(const void* data, int64_t size) {
 }
 
 std::string CheckEncodedBotCoreImages(const void* data, int64_t size) {
-  if (data == nullptr || size < 8) return "message of " + std::to_string(size) + " bytes is too short";
+  if (data == nullptr || size < 8)
+    return "message of " + std::to_string(size) + " bytes is too short";
   BigEndianReader reader(data, size);
   int64_t fingerprint = 0;
   reader.I64(&fingerprint);
@@ -153,8 +155,8 @@ std::vector<uint8_t> Inflate(const std::vector<uint8_t>& compressed, int64_t exp
                              const std::string& what) {
   std::vector<uint8_t> raw(static_cast<size_t>(expected_bytes));
   uLongf raw_size = static_cast<uLongf>(expected_bytes);
-  const int status = uncompress(raw.data(), &raw_size, compressed.data(),
-                                static_cast<uLong>(compressed.size()));
+  const int status =
+      uncompress(raw.data(), &raw_size, compressed.data(), static_cast<uLong>(compressed.size()));
   if (status == Z_BUF_ERROR)
     G6D_THROW(what << ": zlib data inflates to more than the " << expected_bytes
                    << " bytes the image size needs");
@@ -280,7 +282,8 @@ template <typename Message>
 Message DecodeChecked(const void* data, int64_t size, const std::string& check,
                       const std::string& what) {
   if (!check.empty()) G6D_THROW(what << ": message did not decode: " << check);
-  if (size > std::numeric_limits<int>::max()) G6D_THROW(what << ": " << size << " bytes is too large");
+  if (size > std::numeric_limits<int>::max())
+    G6D_THROW(what << ": " << size << " bytes is too large");
   Message message;
   if (message.decode(data, 0, static_cast<int>(size)) < 0)
     G6D_THROW(what << ": message did not decode (malformed)");
@@ -293,15 +296,24 @@ using drake::lcmt_image;
 
 std::string DrakePixelFormatName(int8_t format) {
   switch (format) {
-    case lcmt_image::PIXEL_FORMAT_GRAY: return "GRAY";
-    case lcmt_image::PIXEL_FORMAT_RGB: return "RGB";
-    case lcmt_image::PIXEL_FORMAT_BGR: return "BGR";
-    case lcmt_image::PIXEL_FORMAT_RGBA: return "RGBA";
-    case lcmt_image::PIXEL_FORMAT_BGRA: return "BGRA";
-    case lcmt_image::PIXEL_FORMAT_DEPTH: return "DEPTH";
-    case lcmt_image::PIXEL_FORMAT_LABEL: return "LABEL";
-    case lcmt_image::PIXEL_FORMAT_MASK: return "MASK";
-    case lcmt_image::PIXEL_FORMAT_DISPARITY: return "DISPARITY";
+    case lcmt_image::PIXEL_FORMAT_GRAY:
+      return "GRAY";
+    case lcmt_image::PIXEL_FORMAT_RGB:
+      return "RGB";
+    case lcmt_image::PIXEL_FORMAT_BGR:
+      return "BGR";
+    case lcmt_image::PIXEL_FORMAT_RGBA:
+      return "RGBA";
+    case lcmt_image::PIXEL_FORMAT_BGRA:
+      return "BGRA";
+    case lcmt_image::PIXEL_FORMAT_DEPTH:
+      return "DEPTH";
+    case lcmt_image::PIXEL_FORMAT_LABEL:
+      return "LABEL";
+    case lcmt_image::PIXEL_FORMAT_MASK:
+      return "MASK";
+    case lcmt_image::PIXEL_FORMAT_DISPARITY:
+      return "DISPARITY";
   }
   return "pixel_format " + std::to_string(format);
 }
@@ -328,10 +340,14 @@ int DrakeChannels(int8_t format) {
 // The OpenCV depth (CV_8U, ...) of a channel type; -1 when g6d does not read it.
 int DrakeCvDepth(int8_t channel_type) {
   switch (channel_type) {
-    case lcmt_image::CHANNEL_TYPE_UINT8: return CV_8U;
-    case lcmt_image::CHANNEL_TYPE_INT16: return CV_16S;
-    case lcmt_image::CHANNEL_TYPE_UINT16: return CV_16U;
-    case lcmt_image::CHANNEL_TYPE_FLOAT32: return CV_32F;
+    case lcmt_image::CHANNEL_TYPE_UINT8:
+      return CV_8U;
+    case lcmt_image::CHANNEL_TYPE_INT16:
+      return CV_16S;
+    case lcmt_image::CHANNEL_TYPE_UINT16:
+      return CV_16U;
+    case lcmt_image::CHANNEL_TYPE_FLOAT32:
+      return CV_32F;
   }
   return -1;
 }
@@ -353,8 +369,8 @@ cv::Mat DecodeDrakeImage(const lcmt_image& image, const DecodeLimits& limits,
       return FromRaw(image.data, image.width, image.height, image.row_stride, type, limits, what);
     case lcmt_image::COMPRESSION_METHOD_ZLIB: {
       // Drake's writer compresses the packed pixels; row_stride names the packed row.
-      const int64_t stride = image.row_stride > 0 ? image.row_stride
-                                                  : int64_t{image.width} * CV_ELEM_SIZE(type);
+      const int64_t stride =
+          image.row_stride > 0 ? image.row_stride : int64_t{image.width} * CV_ELEM_SIZE(type);
       const std::vector<uint8_t> raw = Inflate(image.data, stride * image.height, what);
       return FromRaw(raw, image.width, image.height, stride, type, limits, what);
     }
@@ -368,9 +384,10 @@ cv::Mat DecodeDrakeImage(const lcmt_image& image, const DecodeLimits& limits,
       } catch (const cv::Exception& e) {
         G6D_THROW(what << ": corrupted " << (jpeg ? "JPEG" : "PNG") << " payload: " << e.what());
       }
-      if (decoded.empty()) G6D_THROW(what << ": corrupted " << (jpeg ? "JPEG" : "PNG") << " payload");
-      if (decoded.cols != image.width || decoded.rows != image.height ||
-          decoded.depth() != depth || decoded.channels() != CV_MAT_CN(type)) {
+      if (decoded.empty())
+        G6D_THROW(what << ": corrupted " << (jpeg ? "JPEG" : "PNG") << " payload");
+      if (decoded.cols != image.width || decoded.rows != image.height || decoded.depth() != depth ||
+          decoded.channels() != CV_MAT_CN(type)) {
         G6D_THROW(what << ": payload decodes to " << decoded.cols << "x" << decoded.rows << " "
                        << cv::typeToString(decoded.type()) << ", the message says " << image.width
                        << "x" << image.height << " " << cv::typeToString(type));
@@ -403,7 +420,8 @@ rgbd_frame_t AdaptDrake(const void* data, int64_t size, const AdapterOptions& op
   if (depth == nullptr) G6D_THROW("drake: no DEPTH image" << among);
   if (labels == nullptr) G6D_THROW("drake: no LABEL image (instance labels)" << among);
 
-  const std::string color_what = "drake: colour image (" + DrakePixelFormatName(color->pixel_format) + ")";
+  const std::string color_what =
+      "drake: colour image (" + DrakePixelFormatName(color->pixel_format) + ")";
   if (color->channel_type != lcmt_image::CHANNEL_TYPE_UINT8)
     G6D_THROW(color_what << ": channel_type " << int{color->channel_type} << ", expected UINT8");
   const cv::Mat rgb = ToRgb(DecodeDrakeImage(*color, limits, color_what),
@@ -413,14 +431,14 @@ rgbd_frame_t AdaptDrake(const void* data, int64_t size, const AdapterOptions& op
   if (depth->channel_type != lcmt_image::CHANNEL_TYPE_FLOAT32 &&
       depth->channel_type != lcmt_image::CHANNEL_TYPE_UINT16)
     G6D_THROW("drake: depth image: channel_type " << int{depth->channel_type}
-                                                 << ", expected FLOAT32 (metres) or UINT16 (mm)");
+                                                  << ", expected FLOAT32 (metres) or UINT16 (mm)");
   const cv::Mat depth_image = DecodeDrakeImage(*depth, limits, "drake: depth image");
 
   if (labels->channel_type != lcmt_image::CHANNEL_TYPE_INT16 &&
       labels->channel_type != lcmt_image::CHANNEL_TYPE_UINT16 &&
       labels->channel_type != lcmt_image::CHANNEL_TYPE_UINT8)
     G6D_THROW("drake: label image: channel_type " << int{labels->channel_type}
-                                                 << ", expected INT16, UINT16 or UINT8");
+                                                  << ", expected INT16, UINT16 or UINT8");
   std::vector<int32_t> present;
   const cv::Mat mapped = MapLabels(DecodeDrakeImage(*labels, limits, "drake: label image"),
                                    options.label_objects, &present);
@@ -440,15 +458,24 @@ using bot_core::images_t;
 
 std::string BotPixelFormatName(int32_t format) {
   switch (format) {
-    case BotImage::PIXEL_FORMAT_MJPEG: return "MJPEG";
-    case BotImage::PIXEL_FORMAT_RGB: return "RGB";
-    case BotImage::PIXEL_FORMAT_BGR: return "BGR";
-    case BotImage::PIXEL_FORMAT_RGBA: return "RGBA";
-    case BotImage::PIXEL_FORMAT_BGRA: return "BGRA";
-    case BotImage::PIXEL_FORMAT_GRAY: return "GRAY";
-    case BotImage::PIXEL_FORMAT_LE_GRAY16: return "LE_GRAY16";
-    case BotImage::PIXEL_FORMAT_BE_GRAY16: return "BE_GRAY16";
-    case BotImage::PIXEL_FORMAT_INVALID: return "INVALID";
+    case BotImage::PIXEL_FORMAT_MJPEG:
+      return "MJPEG";
+    case BotImage::PIXEL_FORMAT_RGB:
+      return "RGB";
+    case BotImage::PIXEL_FORMAT_BGR:
+      return "BGR";
+    case BotImage::PIXEL_FORMAT_RGBA:
+      return "RGBA";
+    case BotImage::PIXEL_FORMAT_BGRA:
+      return "BGRA";
+    case BotImage::PIXEL_FORMAT_GRAY:
+      return "GRAY";
+    case BotImage::PIXEL_FORMAT_LE_GRAY16:
+      return "LE_GRAY16";
+    case BotImage::PIXEL_FORMAT_BE_GRAY16:
+      return "BE_GRAY16";
+    case BotImage::PIXEL_FORMAT_INVALID:
+      return "INVALID";
   }
   return "pixelformat " + std::to_string(format);
 }
@@ -465,18 +492,30 @@ cv::Mat DecodeBotColor(const BotImage& image, const DecodeLimits& limits) {
     }
     if (decoded.empty()) G6D_THROW(what << ": corrupted JPEG payload (decoder failed)");
     if (decoded.cols != image.width || decoded.rows != image.height)
-      G6D_THROW(what << ": JPEG is " << decoded.cols << "x" << decoded.rows
-                     << ", the message says " << image.width << "x" << image.height);
+      G6D_THROW(what << ": JPEG is " << decoded.cols << "x" << decoded.rows << ", the message says "
+                     << image.width << "x" << image.height);
     return ToRgb(decoded, /*bgr_order=*/true);
   }
   int channels = 0;
   bool bgr = false;
   switch (image.pixelformat) {
-    case BotImage::PIXEL_FORMAT_GRAY: channels = 1; break;
-    case BotImage::PIXEL_FORMAT_RGB: channels = 3; break;
-    case BotImage::PIXEL_FORMAT_BGR: channels = 3; bgr = true; break;
-    case BotImage::PIXEL_FORMAT_RGBA: channels = 4; break;
-    case BotImage::PIXEL_FORMAT_BGRA: channels = 4; bgr = true; break;
+    case BotImage::PIXEL_FORMAT_GRAY:
+      channels = 1;
+      break;
+    case BotImage::PIXEL_FORMAT_RGB:
+      channels = 3;
+      break;
+    case BotImage::PIXEL_FORMAT_BGR:
+      channels = 3;
+      bgr = true;
+      break;
+    case BotImage::PIXEL_FORMAT_RGBA:
+      channels = 4;
+      break;
+    case BotImage::PIXEL_FORMAT_BGRA:
+      channels = 4;
+      bgr = true;
+      break;
     default:
       G6D_THROW(what << ": not a colour format g6d reads (MJPEG, RGB, BGR, RGBA, BGRA, GRAY)");
   }
@@ -496,14 +535,15 @@ cv::Mat DecodeBotDepth(const BotImage& image, bool zipped, const DecodeLimits& l
   if (stride * image.height > limits.max_raw_bytes)
     G6D_THROW(what << ": " << stride * image.height << " raw bytes exceed the limit of "
                    << limits.max_raw_bytes);
-  cv::Mat depth = zipped ? FromRaw(Inflate(image.data, stride * image.height, what), image.width,
-                                   image.height, stride, CV_16U, limits, what)
-                         : FromRaw(image.data, image.width, image.height, stride, CV_16U, limits,
-                                   what);
+  cv::Mat depth =
+      zipped ? FromRaw(Inflate(image.data, stride * image.height, what), image.width, image.height,
+                       stride, CV_16U, limits, what)
+             : FromRaw(image.data, image.width, image.height, stride, CV_16U, limits, what);
   if (image.pixelformat == BotImage::PIXEL_FORMAT_BE_GRAY16) {
     for (int v = 0; v < depth.rows; ++v) {
       uint16_t* row = depth.ptr<uint16_t>(v);
-      for (int u = 0; u < depth.cols; ++u) row[u] = static_cast<uint16_t>((row[u] >> 8) | (row[u] << 8));
+      for (int u = 0; u < depth.cols; ++u)
+        row[u] = static_cast<uint16_t>((row[u] >> 8) | (row[u] << 8));
     }
   }
   return depth;
@@ -515,12 +555,13 @@ cv::Mat DecodeBotMask(const BotImage& image, const DecodeLimits& limits) {
   CheckSize(image.width, image.height, limits, what);
   const int64_t pixels = int64_t{image.width} * image.height;
   if (2 * pixels > limits.max_raw_bytes)
-    G6D_THROW(what << ": " << 2 * pixels << " raw bytes exceed the limit of " << limits.max_raw_bytes);
+    G6D_THROW(what << ": " << 2 * pixels << " raw bytes exceed the limit of "
+                   << limits.max_raw_bytes);
   // Inflate into room for 16-bit labels; the inflated size says which.
   std::vector<uint8_t> raw(static_cast<size_t>(2 * pixels));
   uLongf raw_size = static_cast<uLongf>(raw.size());
-  const int status = uncompress(raw.data(), &raw_size, image.data.data(),
-                                static_cast<uLong>(image.data.size()));
+  const int status =
+      uncompress(raw.data(), &raw_size, image.data.data(), static_cast<uLong>(image.data.size()));
   if (status != Z_OK) G6D_THROW(what << ": zlib data is corrupted (" << zError(status) << ")");
   int type = -1;
   if (static_cast<int64_t>(raw_size) == pixels) type = CV_8U;
@@ -535,8 +576,8 @@ cv::Mat DecodeBotMask(const BotImage& image, const DecodeLimits& limits) {
 
 rgbd_frame_t AdaptBotCore(const void* data, int64_t size, const AdapterOptions& options,
                           const DecodeLimits& limits, int64_t seq, FrameHeader* header) {
-  const auto message = DecodeChecked<images_t>(data, size, CheckEncodedBotCoreImages(data, size),
-                                               "bot_core");
+  const auto message =
+      DecodeChecked<images_t>(data, size, CheckEncodedBotCoreImages(data, size), "bot_core");
   header->utime = message.utime;
   header->seq = seq;
   const BotImage *color = nullptr, *depth = nullptr, *mask = nullptr;
@@ -599,9 +640,12 @@ T Get(const YAML::Node& node, const std::string& key, const std::string& name) {
 
 std::string InputTypeName(InputType type) {
   switch (type) {
-    case InputType::kG6d: return "g6d";
-    case InputType::kDrake: return "drake";
-    case InputType::kBotCore: return "bot_core";
+    case InputType::kG6d:
+      return "g6d";
+    case InputType::kDrake:
+      return "drake";
+    case InputType::kBotCore:
+      return "bot_core";
   }
   return "unknown";
 }
@@ -617,8 +661,8 @@ std::string AdapterOptions::Check(InputType type) const {
   std::ostringstream out;
   if (!(camera.fx > 0.0) || !(camera.fy > 0.0) || !std::isfinite(camera.fx) ||
       !std::isfinite(camera.fy))
-    out << "camera: fx and fy must be > 0 (got " << camera.fx << ", " << camera.fy
-        << "; the " << InputTypeName(type) << " input needs a camera YAML)";
+    out << "camera: fx and fy must be > 0 (got " << camera.fx << ", " << camera.fy << "; the "
+        << InputTypeName(type) << " input needs a camera YAML)";
   else if (!std::isfinite(camera.cx) || !std::isfinite(camera.cy))
     out << "camera: cx and cy must be finite";
   else if (camera.width < 1 || camera.height < 1)
@@ -629,8 +673,10 @@ std::string AdapterOptions::Check(InputType type) const {
         << " input needs a label map (label value -> object id)";
   for (const auto& [label, object_id] : label_objects) {
     if (!out.str().empty()) break;
-    if (label <= 0 || label > 65535) out << "labels: label " << label << " is outside 1..65535";
-    else if (object_id.empty()) out << "labels: label " << label << " has an empty object id";
+    if (label <= 0 || label > 65535)
+      out << "labels: label " << label << " is outside 1..65535";
+    else if (object_id.empty())
+      out << "labels: label " << label << " has an empty object id";
   }
   return out.str();
 }
@@ -646,7 +692,8 @@ Camera ParseCameraYaml(const std::string& text, const std::string& name) {
     if (pinhole.size() != 5)
       G6D_THROW(name << ": key 'pinhole' must be [fx, fy, skew, cx, cy] (got " << pinhole.size()
                      << " numbers)");
-    if (pinhole[2] != 0.0) G6D_THROW(name << ": pinhole skew " << pinhole[2] << " is not supported (must be 0)");
+    if (pinhole[2] != 0.0)
+      G6D_THROW(name << ": pinhole skew " << pinhole[2] << " is not supported (must be 0)");
     camera.fx = pinhole[0];
     camera.fy = pinhole[1];
     camera.cx = pinhole[3];
@@ -669,7 +716,8 @@ Camera LoadCameraYaml(const std::string& path) {
 std::map<int32_t, std::string> ParseLabelMapYaml(const std::string& text, const std::string& name) {
   YAML::Node root = LoadYamlText(text, name);
   if (root.IsMap() && root["labels"]) root = root["labels"];
-  if (!root.IsMap()) G6D_THROW(name << ": a label map must be a mapping of label value to object id");
+  if (!root.IsMap())
+    G6D_THROW(name << ": a label map must be a mapping of label value to object id");
   std::map<int32_t, std::string> labels;
   for (const auto& entry : root) {
     int32_t label = 0;
@@ -681,7 +729,8 @@ std::map<int32_t, std::string> ParseLabelMapYaml(const std::string& text, const 
       G6D_THROW(name << ": label map entry '" << entry.first.Scalar()
                      << "' must map an integer label to an object id");
     }
-    if (label <= 0 || label > 65535) G6D_THROW(name << ": label " << label << " is outside 1..65535");
+    if (label <= 0 || label > 65535)
+      G6D_THROW(name << ": label " << label << " is outside 1..65535");
     if (object_id.empty()) G6D_THROW(name << ": label " << label << " has an empty object id");
     labels[label] = object_id;
   }

@@ -14,7 +14,8 @@ namespace g6d {
 
 LcmHandleThread::LcmHandleThread(lcm::LCM* lcm, ErrorCallback on_error)
     : lcm_(lcm), on_error_(std::move(on_error)) {
-  if (lcm_ == nullptr || !lcm_->good()) G6D_THROW("LcmHandleThread: the LCM instance is not usable");
+  if (lcm_ == nullptr || !lcm_->good())
+    G6D_THROW("LcmHandleThread: the LCM instance is not usable");
   wake_fd_ = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
   if (wake_fd_ < 0) G6D_THROW("LcmHandleThread: eventfd failed: " << std::strerror(errno));
   thread_ = std::thread([this] { Run(); });
@@ -43,7 +44,8 @@ void LcmHandleThread::Run() {
     fds[0].revents = fds[1].revents = 0;
     if (poll(fds, 2, -1) < 0) {
       if (errno == EINTR) continue;
-      report(std::string("poll failed: ") + std::strerror(errno) + "; no more messages are handled");
+      report(std::string("poll failed: ") + std::strerror(errno) +
+             "; no more messages are handled");
       return;
     }
     if (fds[1].revents != 0) return;  // Stop()
