@@ -20,7 +20,6 @@
 #error "image_codec assumes a little-endian host (image_t pixels are little-endian)"
 #endif
 
-
 namespace g6d {
 namespace {
 
@@ -135,7 +134,6 @@ void CopyRows(const uint8_t* source, int64_t stride, int height, int64_t row_byt
 
 // Raw pixels of a continuous copy of `image` (no copy when already continuous).
 cv::Mat Continuous(const cv::Mat& image) { return image.isContinuous() ? image : image.clone(); }
-
 
 }  // namespace
 
@@ -406,6 +404,5 @@ cv::Mat DecodeImage(const image_t& image, const std::string& what, const DecodeL
   }
   G6D_THROW(what << ": unknown compression " << int{image.compression});
 }
-
 
 }  // namespace g6d
