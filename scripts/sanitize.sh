@@ -31,7 +31,7 @@ TSAN_TARGETS=("${TSAN_TESTS[@]}" g6d-service)
 # 90 minutes on 2 cores): the message, image, cache and BOP parsers with their fuzz corpora,
 # the mesh, symmetry, appearance, rasterizer and solver stages, and the service end to end.
 ASAN_CI_TESTS=(cache_test frame_codec_test bop_test bop_csv_test mesh_test symmetry_test appearance_test
-  raster_test pnp_test icp_test mhpo_test score_test pipeline_test service_test input_adapters_test)
+  raster_test pnp_test icp_test mhpo_test score_test pipeline_test service_test)
 FUZZ_TARGETS=(frame_message foreign_message image_decode template_cache bop_json bop_csv)
 
 # The runtime options of both ASan runs: leaks, stop at the first report, suppressions.
