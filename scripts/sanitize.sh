@@ -32,7 +32,7 @@ TSAN_TARGETS=("${TSAN_TESTS[@]}" g6d-service)
 # the mesh, symmetry, appearance, rasterizer and solver stages, and the service end to end.
 ASAN_CI_TESTS=(cache_test frame_codec_test bop_test bop_csv_test mesh_test symmetry_test appearance_test
   raster_test pnp_test icp_test mhpo_test score_test pipeline_test service_test)
-FUZZ_TARGETS=(frame_message foreign_message image_decode template_cache bop_json bop_csv)
+FUZZ_TARGETS=(frame_message image_decode template_cache bop_json bop_csv)
 
 # The runtime options of both ASan runs: leaks, stop at the first report, suppressions.
 asan_environment() {
@@ -40,6 +40,9 @@ asan_environment() {
   export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1:suppressions=${ROOT}/tests/ubsan_suppressions.txt"
   export LSAN_OPTIONS="suppressions=${ROOT}/tests/lsan_suppressions.txt:print_suppressions=0"
 }
+# The input adapters' fuzz target (issue 15), and its unit test in the ASan CI list.
+FUZZ_TARGETS+=(foreign_message)
+ASAN_CI_TESTS+=(input_adapters_test)
 
 START=$(date +%s)
 run_asan_ci() {
