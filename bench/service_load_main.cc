@@ -35,7 +35,10 @@
 #include "core/error.h"
 #include "proc_stats.h"
 #include "service/service.h"
-#include "service_test_util.h"
+#include "synthetic/service_scene.h"
+#include "synthetic/synthetic_scene.h"
+#include "wire/lcm_loop.h"
+#include "wire/synthetic_frame.h"
 
 namespace {
 
@@ -141,7 +144,7 @@ void PrintRow(const char* label, const std::vector<double>& values_s) {
 /// Replaces the flat background of a rendered view by a textured wall 1.2 m away with
 /// depth noise, so that compressed frames are as large as real ones (a flat background
 /// compresses to almost nothing and would flatter the decode time).
-void AddClutteredBackground(g6d::test::SyntheticView* view, uint64_t seed) {
+void AddClutteredBackground(g6d::synthetic::SyntheticView* view, uint64_t seed) {
   cv::RNG rng(seed);
   cv::Mat wall(view->rgb.size(), CV_8UC3);
   rng.fill(wall, cv::RNG::UNIFORM, cv::Scalar::all(40), cv::Scalar::all(220));
@@ -213,27 +216,27 @@ int main(int argc, char** argv) {
   try {
     // The scene: a textured box, its template bank (the paper's 324 views), rendered views.
     std::printf("building the synthetic object, its template bank and %d views...\n", views);
-    g6d::test::ServiceScene scene;
+    g6d::synthetic::ServiceScene scene;
     {
-      scene.mesh = g6d::test::MakeTexturedBox(0.10, 0.07, 0.05, 21);
+      scene.mesh = g6d::synthetic::MakeTexturedBox(0.10, 0.07, 0.05, 21);
       g6d::ThreadPool pool(2);
       scene.bank =
-          g6d::BuildTemplateBank(scene.mesh, g6d::test::kBoxId, g6d::TemplateBuildOptions(), &pool);
+          g6d::BuildTemplateBank(scene.mesh, g6d::synthetic::kBoxId, g6d::TemplateBuildOptions(), &pool);
       g6d::GlRenderer renderer(scene.mesh);
       std::mt19937_64 rng(5);
       for (int i = 0; i < views; ++i) {
-        g6d::test::SyntheticOptions options;
+        g6d::synthetic::SyntheticOptions options;
         options.seed = static_cast<uint64_t>(i);
-        scene.views.push_back(g6d::test::RenderSyntheticView(
-            &renderer, scene.mesh, g6d::test::kServiceCamera,
-            g6d::test::RandomPose(g6d::test::kServiceCamera, 0.5, 0.8, &rng), options));
+        scene.views.push_back(g6d::synthetic::RenderSyntheticView(
+            &renderer, scene.mesh, g6d::synthetic::kServiceCamera,
+            g6d::synthetic::RandomPose(g6d::synthetic::kServiceCamera, 0.5, 0.8, &rng), options));
         if (!plain_background)
           AddClutteredBackground(&scene.views.back(), static_cast<uint64_t>(i));
       }
     }
     std::vector<g6d::rgbd_frame_t> frames;
     for (int i = 0; i < views; ++i) {
-      frames.push_back(g6d::test::MakeRgbdFrame(scene.views[i], i, g6d::test::kBoxId, "bench",
+      frames.push_back(g6d::synthetic::MakeRgbdFrame(scene.views[i], i, g6d::synthetic::kBoxId, "bench",
                                                 CompressionFromName(color)));
     }
     const int frame_bytes = frames[0].getEncodedSize();
@@ -248,10 +251,10 @@ int main(int argc, char** argv) {
       options.output_channel = output;
       options.status_channel = status_channel;
       options.workers = workers;
-      options.solver = quick ? g6d::test::QuickSolverOptions() : g6d::SolverOptions();
+      options.solver = quick ? g6d::synthetic::QuickSolverOptions() : g6d::SolverOptions();
       options.solver.num_hypotheses = hypotheses;
       g6d::TemplateStore store;
-      store.banks[g6d::test::kBoxId] = std::make_shared<g6d::TemplateBank>(scene.bank);
+      store.banks[g6d::synthetic::kBoxId] = std::make_shared<g6d::TemplateBank>(scene.bank);
       service_lcm = std::make_unique<lcm::LCM>(lcm_url);
       if (!service_lcm->good()) G6D_THROW("cannot open LCM at " << lcm_url);
       service = std::make_unique<g6d::Service>(options, std::move(store), service_lcm.get());
@@ -264,7 +267,7 @@ int main(int argc, char** argv) {
     lcm.subscribe(g6d::LcmChannelRegex(output), &AnswerLog::OnAnswer, &log)
         ->setQueueCapacity(100000);
     lcm.subscribe(g6d::LcmChannelRegex(status_channel), &AnswerLog::OnStatus, &log);
-    g6d::test::LcmPump pump(&lcm);
+    g6d::LcmHandleThread pump(&lcm);
     int64_t seq = 0;
     auto publish = [&](int64_t s) {
       g6d::rgbd_frame_t frame = frames[static_cast<size_t>(s) % frames.size()];

@@ -58,19 +58,19 @@
 #include <thread>
 #include <vector>
 
-#include "bad_frames.h"
 #include "core/error.h"
-#include "lcm_pump.h"
-#include "proc_stats.h"
 #include "g6d/pose_array_t.hpp"
 #include "g6d/service_status_t.hpp"
+#include "proc_stats.h"
 #include "replay/frame_log.h"
 #include "replay/replay.h"
+#include "wire/bad_frames.h"
+#include "wire/lcm_loop.h"
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
-using g6d::test::BadCase;
+using g6d::synthetic::BadCase;
 
 double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
 
@@ -368,7 +368,7 @@ int64_t UdpDrops(pid_t pid) {
 
 // ---- LCM -----------------------------------------------------------------------------------
 
-using g6d::test::LcmPump;
+using g6d::LcmHandleThread;
 
 // ---- Answers -------------------------------------------------------------------------------
 
@@ -1048,7 +1048,7 @@ std::vector<std::vector<uint8_t>> LoadGoodFrames(const SoakOptions& options,
   g6d::FrameEvent event;
   while (reader.Next(&event)) {
     if (frames.empty()) *first = event.frame;
-    frames.push_back(g6d::test::EncodeMessage(event.frame));
+    frames.push_back(g6d::synthetic::EncodeMessage(event.frame));
   }
   for (const std::string& problem : reader.stats().Problems())
     std::fprintf(stderr, "[soak] %s\n", problem.c_str());
@@ -1063,7 +1063,7 @@ int RunSoak(const SoakOptions& options) {
   g6d::rgbd_frame_t first;
   std::vector<std::vector<uint8_t>> good_frames = LoadGoodFrames(options, &first);
   first.seq = 0;
-  const std::vector<BadCase> cases = g6d::test::MakeBadCases(first);
+  const std::vector<BadCase> cases = g6d::synthetic::MakeBadCases(first);
   std::vector<std::vector<uint8_t>> bad_frames;
   for (const BadCase& bad : cases) bad_frames.push_back(bad.bytes);
   std::printf("[soak] %zu good frames from %s (%.0f kB each), %zu kinds of bad frames\n",
@@ -1106,7 +1106,7 @@ int RunSoak(const SoakOptions& options) {
   ServiceProcess service(argv, options.service_log);
   std::printf("[soak] g6d-service pid %d on %s (log %s)\n", static_cast<int>(service.pid()),
               url.c_str(), options.service_log.c_str());
-  LcmPump pump(&lcm);
+  LcmHandleThread pump(&lcm);
   {
     const Clock::time_point deadline =
         Clock::now() + std::chrono::duration_cast<Clock::duration>(
@@ -1191,8 +1191,8 @@ int RunSoak(const SoakOptions& options) {
       bytes = &good_frames[next_good++ % good_frames.size()];
     }
     if (kind < 0 || cases[kind].seq_known) {
-      g6d::test::PatchSeq(bytes, seq);
-      g6d::test::PatchUtime(bytes, NowUtime());
+      g6d::synthetic::PatchSeq(bytes, seq);
+      g6d::synthetic::PatchUtime(bytes, NowUtime());
     }
     collector.Sent(seq, kind, Clock::now());
     if (lcm.publish(options.input_channel, bytes->data(), static_cast<unsigned>(bytes->size())) !=

@@ -9,7 +9,7 @@
 #include "core/executor.h"
 #include "core/se3.h"
 #include "solver/pipeline.h"
-#include "synthetic_scene.h"
+#include "synthetic/synthetic_scene.h"
 #include "templates/crop.h"
 
 namespace g6d {
@@ -19,9 +19,9 @@ const Camera kCamera{572.4114, 573.57043, 325.2611, 242.04899, 640, 480};
 
 // Everything built once: the bank, one view and the prepared observation.
 struct Fixture {
-  Mesh mesh = test::MakeTexturedBox(0.10, 0.07, 0.05, 21);
+  Mesh mesh = synthetic::MakeTexturedBox(0.10, 0.07, 0.05, 21);
   TemplateBank bank;
-  test::SyntheticView view;
+  synthetic::SyntheticView view;
   Frame frame;
   Eigen::Isometry3d truth;
   std::vector<Feature> query;
@@ -35,8 +35,8 @@ struct Fixture {
     bank = BuildTemplateBank(mesh, "box", TemplateBuildOptions(), &pool);
     GlRenderer renderer(mesh);
     std::mt19937_64 rng(3);
-    truth = test::RandomPose(kCamera, 0.55, 0.65, &rng);
-    view = test::RenderSyntheticView(&renderer, mesh, kCamera, truth, {});
+    truth = synthetic::RandomPose(kCamera, 0.55, 0.65, &rng);
+    view = synthetic::RenderSyntheticView(&renderer, mesh, kCamera, truth, {});
     frame.camera = kCamera;
     frame.rgb = view.rgb;
     frame.depth = view.depth;

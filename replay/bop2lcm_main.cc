@@ -4,14 +4,19 @@
 #include <cstdio>
 #include <string>
 
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
 #include "bop_to_lcm.h"
+#include "foreign_log.h"
 #include "core/error.h"
 
 int main(int argc, char** argv) {
   CLI::App app{
       "g6d-bop2lcm: a BOP scene (rgb/, depth/, mask_visib/, scene_gt.json, scene_camera.json) "
       "-> an LCM log of g6d_rgbd_frame_t, one event per image"};
-  std::string dataset_dir, frames_text, targets_file, color = "png", out;
+  std::string dataset_dir, frames_text, targets_file, color = "png", out, as = "g6d";
   int scene_id = -1;
   bool all_instances = false;
   g6d::BopToLcmOptions options;
@@ -34,6 +39,12 @@ int main(int argc, char** argv) {
   app.add_option("--split", options.split, "split folder holding the scenes")
       ->capture_default_str();
   app.add_option("--out", out, "LCM log file to write (overwritten)")->required();
+  app.add_option("--as", as,
+                 "message type: g6d (g6d_rgbd_frame_t), drake (lcmt_image_array) or bot_core "
+                 "(images_t; MJPEG colour with --color jpeg, else raw RGB). Also writes "
+                 "<out>.yaml, the g6d-service options for the log, and for drake/bot_core "
+                 "<out>.ids.csv, the frames' scene/image ids for g6d-replay")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -41,7 +52,32 @@ int main(int argc, char** argv) {
     if (!frames_text.empty()) options.frames = g6d::ParseFrameList(frames_text);
     options.targets_file = targets_file;
     options.use_targets = !all_instances;
-    const g6d::BopToLcmReport report = g6d::WriteBopSceneLog(options, dataset_dir, scene_id, out);
+    const g6d::InputType type = g6d::ParseInputType(as);
+    // Foreign types: the g6d log first, then rewritten message by message.
+    const std::string g6d_log = type == g6d::InputType::kG6d ? out : out + ".g6d.tmp";
+    const g6d::BopToLcmReport report =
+        g6d::WriteBopSceneLog(options, dataset_dir, scene_id, g6d_log);
+    g6d::ForeignLogReport foreign;
+    if (type != g6d::InputType::kG6d) {
+      g6d::ForeignLogOptions foreign_options;
+      foreign_options.type = type;
+      foreign_options.bot_core_mjpeg = options.color == g6d::ColorEncoding::kJpeg;
+      foreign_options.jpeg_quality = options.encode.jpeg_quality;
+      foreign = g6d::ConvertFrameLog(g6d_log, options.channel, foreign_options, out);
+      std::filesystem::remove(g6d_log);
+      g6d::WriteForeignFrameIds(out + ".ids.csv", foreign.ids);
+      if (foreign.dropped_instances > 0) {
+        std::fprintf(stderr,
+                     "g6d-bop2lcm: warning: %d instance(s) dropped: %s labels name objects, and "
+                     "their object was already in the frame\n",
+                     foreign.dropped_instances, as.c_str());
+      }
+    }
+    {
+      std::ofstream yaml(out + ".yaml");
+      yaml << g6d::ServiceOptionsYamlFor(options.channel, type, foreign);
+      if (!yaml) G6D_THROW("cannot write " << out << ".yaml");
+    }
     if (report.missing_instances > 0) {
       std::fprintf(stderr,
                    "g6d-bop2lcm: warning: %d target instance(s) have no GT entry of their object\n",
@@ -62,10 +98,11 @@ int main(int argc, char** argv) {
         report.targets_file.empty() ? "all GT instances" : "targets of " + report.targets_file;
     std::printf(
         "g6d-bop2lcm: %s scene %d: %d of %d images, %d instances -> %s (%.1f MB, %s colour, "
-        "channel %s) in %.1f s; %s\n",
+        "channel %s, as %s; service options %s.yaml) in %.1f s; %s\n",
         report.source.c_str(), scene_id, report.frames_written, report.images_in_scene,
-        report.instances_written, out.c_str(), report.bytes_written / 1e6, color.c_str(),
-        options.channel.c_str(), report.seconds, selection.c_str());
+        report.instances_written, out.c_str(),
+        static_cast<double>(std::filesystem::file_size(out)) / 1e6, color.c_str(),
+        options.channel.c_str(), as.c_str(), out.c_str(), report.seconds, selection.c_str());
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "g6d-bop2lcm: error: %s\n", e.what());

@@ -12,7 +12,7 @@
 
 #include "core/error.h"
 #include "core/timer.h"
-#include "service/frame_codec.h"
+#include "wire/frame_codec.h"
 
 namespace g6d {
 namespace {

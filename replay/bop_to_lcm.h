@@ -15,7 +15,7 @@
 
 #include "eval/bop.h"
 #include "g6d/rgbd_frame_t.hpp"
-#include "service/frame_codec.h"
+#include "wire/frame_codec.h"
 
 namespace g6d {
 

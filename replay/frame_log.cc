@@ -6,7 +6,9 @@
 #include <sstream>
 
 #include "core/error.h"
-#include "service/frame_codec.h"
+#include "bot_core/images_t.hpp"
+#include "drake/lcmt_image_array.hpp"
+#include "wire/frame_codec.h"
 
 namespace g6d {
 namespace {
@@ -68,7 +70,10 @@ std::vector<std::string> FrameLogStats::Problems() const {
   return problems;
 }
 
-FrameLogReader::FrameLogReader(const std::string& path, const std::string& channel) {
+FrameLogReader::FrameLogReader(
+    const std::string& path, const std::string& channel, InputType type,
+    std::map<int64_t, ForeignFrameIds> ids)
+    : type_(type), ids_(std::move(ids)) {
   stats_.path = path;
   stats_.channel = channel;
   std::error_code error;
@@ -81,6 +86,34 @@ FrameLogReader::FrameLogReader(const std::string& path, const std::string& chann
 }
 
 FrameLogReader::~FrameLogReader() = default;
+
+rgbd_frame_t FrameLogReader::ForeignFrameIdentity(const void* data, int64_t size,
+                                                  int64_t event_number) const {
+  rgbd_frame_t frame;
+  frame.source = InputTypeName(type_);
+  frame.scene_id = frame.image_id = -1;
+  frame.num_instances = 0;
+  if (type_ == InputType::kDrake) {
+    if (const std::string e = CheckEncodedDrakeImageArray(data, size); !e.empty()) G6D_THROW(e);
+    drake::lcmt_image_array message;
+    if (message.decode(data, 0, static_cast<int>(size)) < 0) G6D_THROW("malformed");
+    frame.utime = message.header.utime;
+    frame.seq = message.header.seq;
+  } else {
+    if (const std::string e = CheckEncodedBotCoreImages(data, size); !e.empty()) G6D_THROW(e);
+    bot_core::images_t message;
+    if (message.decode(data, 0, static_cast<int>(size)) < 0) G6D_THROW("malformed");
+    frame.utime = message.utime;
+    frame.seq = event_number;
+  }
+  const auto ids = ids_.find(frame.utime);
+  if (ids != ids_.end()) {
+    frame.source = ids->second.source;
+    frame.scene_id = ids->second.scene_id;
+    frame.image_id = ids->second.image_id;
+  }
+  return frame;
+}
 
 bool FrameLogReader::Next(FrameEvent* event) {
   while (!done_) {
@@ -105,7 +138,13 @@ bool FrameLogReader::Next(FrameEvent* event) {
       continue;
     }
     try {
-      event->frame = DecodeRgbdFrameMessage(log_event->data, log_event->datalen);
+      if (type_ == InputType::kG6d) {
+        event->frame = DecodeRgbdFrameMessage(log_event->data, log_event->datalen);
+      } else {
+        event->frame = ForeignFrameIdentity(log_event->data, log_event->datalen, number);
+        event->raw.assign(static_cast<const uint8_t*>(log_event->data),
+                          static_cast<const uint8_t*>(log_event->data) + log_event->datalen);
+      }
     } catch (const Error&) {
       if (stats_.undecodable++ == 0) stats_.first_undecodable_event = number;
       continue;
@@ -118,8 +157,9 @@ bool FrameLogReader::Next(FrameEvent* event) {
   return false;
 }
 
-FrameLogStats ScanFrameLog(const std::string& path, const std::string& channel) {
-  FrameLogReader reader(path, channel);
+FrameLogStats ScanFrameLog(const std::string& path, const std::string& channel,
+                           InputType type) {
+  FrameLogReader reader(path, channel, type);
   FrameEvent event;
   while (reader.Next(&event)) {
   }

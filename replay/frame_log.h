@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "g6d/rgbd_frame_t.hpp"
+#include "wire/input_adapters.h"
 
 namespace lcm {
 class LogFile;
@@ -44,11 +45,23 @@ struct FrameLogStats {
   std::vector<std::string> Problems() const;
 };
 
+/// The request identity of a frame written as a foreign message, which loses it
+/// (foreign_log.h writes and reads these).
+struct ForeignFrameIds {
+  std::string source;
+  int32_t scene_id = -1;
+  int32_t image_id = -1;
+};
+
 /// One frame event of the log.
 struct FrameEvent {
   int64_t event_number = 0;  ///< index of the event in the log (all channels)
   int64_t timestamp_us = 0;  ///< log timestamp, microseconds
-  rgbd_frame_t frame;        ///< decoded message
+  /// The decoded message. For a foreign input type only its identity: utime, seq (Drake's
+  /// header seq; the event number for bot_core), source (the input type name, or the frame
+  /// ids file's) and scene/image ids (from the frame ids file, else -1); no images.
+  rgbd_frame_t frame;
+  std::vector<uint8_t> raw;  ///< the event's bytes, for a foreign input type (sent as they are)
 };
 
 /// Streams the frame events of one channel out of an LCM log. State (the open file and the
@@ -57,7 +70,11 @@ class FrameLogReader {
  public:
   /// Opens `path`. Throws g6d::Error naming the path when it does not exist, is not a
   /// regular file, or cannot be opened.
-  FrameLogReader(const std::string& path, const std::string& channel);
+  /// `type` is the message type of the channel (drake / bot_core events are checked and
+  /// decoded as those types); `ids` (optional) gives their scene and image ids by utime.
+  FrameLogReader(const std::string& path, const std::string& channel,
+                 InputType type = InputType::kG6d,
+                 std::map<int64_t, ForeignFrameIds> ids = {});
   ~FrameLogReader();
   FrameLogReader(const FrameLogReader&) = delete;
   FrameLogReader& operator=(const FrameLogReader&) = delete;
@@ -71,13 +88,19 @@ class FrameLogReader {
   const FrameLogStats& stats() const { return stats_; }
 
  private:
+  /// utime, seq, source and ids of a foreign event; throws g6d::Error when it does not decode.
+  rgbd_frame_t ForeignFrameIdentity(const void* data, int64_t size, int64_t event_number) const;
+
   std::unique_ptr<lcm::LogFile> log_;
   FrameLogStats stats_;
   int64_t position_ = 0;  ///< file offset after the last complete event
   bool done_ = false;
+  InputType type_ = InputType::kG6d;
+  std::map<int64_t, ForeignFrameIds> ids_;
 };
 
 /// Reads the whole log once (for counts before a replay). Throws as FrameLogReader.
-FrameLogStats ScanFrameLog(const std::string& path, const std::string& channel);
+FrameLogStats ScanFrameLog(const std::string& path, const std::string& channel,
+                           InputType type = InputType::kG6d);
 
 }  // namespace g6d

@@ -1,7 +1,5 @@
 #include "replay.h"
 
-#include <poll.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -19,6 +17,8 @@
 #include "core/error.h"
 #include "eval/bop.h"
 #include "frame_log.h"
+#include "wire/lcm_loop.h"
+#include "wire/names.h"
 
 namespace g6d {
 namespace {
@@ -31,63 +31,19 @@ int64_t WallClockUtime() {
       .count();
 }
 
-// Runs lcm->handle() on its own thread: poll() on the LCM file descriptor and on a wake
-// pipe, so Stop() takes effect at once and nothing sleeps in a loop. LCM's descriptor
-// becomes readable only when a whole message is queued, so handle() never blocks here.
-class LcmHandleThread {
- public:
-  explicit LcmHandleThread(lcm::LCM* lcm) : lcm_(lcm) {
-    if (::pipe(wake_) != 0) G6D_THROW("cannot create a pipe: " << std::strerror(errno));
-    thread_ = std::thread([this] { Run(); });
-  }
-  ~LcmHandleThread() {
-    Stop();
-    ::close(wake_[0]);
-    ::close(wake_[1]);
-  }
-  LcmHandleThread(const LcmHandleThread&) = delete;
-  LcmHandleThread& operator=(const LcmHandleThread&) = delete;
-
-  void Stop() {
-    if (!thread_.joinable()) return;
-    const char byte = 1;
-    while (::write(wake_[1], &byte, 1) < 0 && errno == EINTR) {
-    }
-    thread_.join();
-  }
-
- private:
-  void Run() {
-    pollfd fds[2] = {{lcm_->getFileno(), POLLIN, 0}, {wake_[0], POLLIN, 0}};
-    while (true) {
-      if (::poll(fds, 2, -1) < 0) {
-        if (errno == EINTR) continue;
-        G6D_CHECK(false && "poll() on the LCM descriptor failed");
-      }
-      if (fds[1].revents != 0) return;
-      // A broken LCM descriptor would make poll() return at once forever; stop instead
-      // (the waiters then run into their timeouts and report lost frames).
-      if (fds[0].revents & (POLLERR | POLLHUP | POLLNVAL)) return;
-      if (fds[0].revents & POLLIN) lcm_->handle();
-    }
-  }
-
-  lcm::LCM* lcm_;
-  int wake_[2] = {-1, -1};
-  std::thread thread_;
-};
-
 // The frames sent so far and their answers, shared by the sending thread and the LCM
 // handle thread.
 class AnswerCollector {
  public:
-  explicit AnswerCollector(std::string results_channel)
-      : results_channel_(std::move(results_channel)) {}
+  // by_utime: answers are matched by the frame utime alone (foreign input types: their
+  // answers carry no source and, for bot_core, the service's own seq).
+  AnswerCollector(std::string results_channel, bool by_utime)
+      : results_channel_(std::move(results_channel)), by_utime_(by_utime) {}
 
   // Registers a frame before it is published (so its answer cannot arrive first).
   size_t Expect(const ReplayedFrame& frame) {
     std::lock_guard<std::mutex> lock(mutex_);
-    index_[{frame.source, frame.seq, frame.sent_utime}] = frames_.size();
+    index_[Key(frame.source, frame.seq, frame.sent_utime)] = frames_.size();
     frames_.push_back(frame);
     sent_at_.push_back(Clock::now());
     return frames_.size() - 1;
@@ -106,7 +62,7 @@ class AnswerCollector {
         ++undecodable_answers_;
         return;
       }
-      const auto it = index_.find({answer.source, answer.seq, answer.source_utime});
+      const auto it = index_.find(Key(answer.source, answer.seq, answer.source_utime));
       if (it == index_.end()) {
         ++unmatched_;
         return;
@@ -170,7 +126,14 @@ class AnswerCollector {
   }
 
  private:
+  std::tuple<std::string, int64_t, int64_t> Key(const std::string& source, int64_t seq,
+                                                int64_t utime) const {
+    if (by_utime_) return {"", 0, utime};
+    return {source, seq, utime};
+  }
+
   const std::string results_channel_;
+  const bool by_utime_;
   std::mutex mutex_;
   std::condition_variable changed_;
   std::vector<ReplayedFrame> frames_;
@@ -328,20 +291,23 @@ std::string ReplayModeName(const ReplayOptions& options) {
   return "unknown";
 }
 
-std::string EstimateStatusName(int8_t status) {
-  switch (status) {
-    case pose_estimate_t::STATUS_OK:
-      return "ok";
-    case pose_estimate_t::STATUS_NO_SOLUTION:
-      return "no_solution";
-    case pose_estimate_t::STATUS_BAD_INPUT:
-      return "bad_input";
-    case pose_estimate_t::STATUS_UNKNOWN_OBJECT:
-      return "unknown_object";
-    case pose_estimate_t::STATUS_INTERNAL_ERROR:
-      return "internal_error";
+void WriteAnswersLog(const std::string& path, const std::string& channel,
+                     const std::vector<ReplayedFrame>& frames) {
+  lcm::LogFile log(path, "w");
+  if (!log.good()) G6D_THROW("cannot write the answers log '" << path << "'");
+  int64_t number = 0;
+  for (const ReplayedFrame& frame : frames) {
+    if (!frame.answered) continue;
+    std::vector<uint8_t> bytes(static_cast<size_t>(frame.answer.getEncodedSize()));
+    G6D_CHECK(frame.answer.encode(bytes.data(), 0, static_cast<int>(bytes.size())) >= 0);
+    lcm::LogEvent event;
+    event.eventnum = number++;
+    event.timestamp = frame.answer.utime;
+    event.channel = channel;
+    event.datalen = static_cast<int32_t>(bytes.size());
+    event.data = bytes.data();
+    if (log.writeEvent(&event) != 0) G6D_THROW("cannot write to the answers log '" << path << "'");
   }
-  return "unknown(" + std::to_string(status) + ")";
 }
 
 ReplayReport RunReplay(const ReplayOptions& options, FrameLogReader* reader, lcm::LCM* lcm,
@@ -355,7 +321,8 @@ ReplayReport RunReplay(const ReplayOptions& options, FrameLogReader* reader, lcm
     if (progress) progress(collector.Progress(total_frames, last));
   };
 
-  AnswerCollector collector(options.results_channel);
+  const bool foreign = options.input_type != InputType::kG6d;
+  AnswerCollector collector(options.results_channel, /*by_utime=*/foreign);
   ReplayReport report;
   {
     // Destroyed in reverse order: the handle thread stops before the handler goes away.
@@ -382,10 +349,15 @@ ReplayReport RunReplay(const ReplayOptions& options, FrameLogReader* reader, lcm
           answered_seen = answered;
         }
       }
-      event.frame.utime = WallClockUtime();
+      // A g6d frame gets the send time as utime (so stale checks and latency see now); a
+      // foreign message goes out byte for byte as logged, matched by its own utime.
+      if (!foreign) event.frame.utime = WallClockUtime();
       const size_t slot = collector.Expect(Describe(event.frame));
       last_send = Clock::now();
-      if (lcm->publish(options.channel, &event.frame) != 0) {
+      if (foreign) {
+        if (lcm->publish(options.channel, event.raw.data(), static_cast<unsigned int>(event.raw.size())) != 0)
+          G6D_THROW("cannot publish event " << event.event_number << " on " << options.channel);
+      } else if (lcm->publish(options.channel, &event.frame) != 0) {
         G6D_THROW("cannot publish frame seq " << event.frame.seq << " on " << options.channel
                                               << " (message of " << event.frame.getEncodedSize()
                                               << " bytes)");
@@ -439,8 +411,9 @@ std::vector<BopEstimate> AnswersToBopEstimates(const std::vector<ReplayedFrame>&
         ++skipped;
         continue;
       }
-      row.scene_id = answer.scene_id;
-      row.im_id = answer.image_id;
+      // Foreign input types echo no ids: the request's (from the frame ids file) then.
+      row.scene_id = answer.scene_id >= 0 ? answer.scene_id : frame.scene_id;
+      row.im_id = answer.image_id >= 0 ? answer.image_id : frame.image_id;
       row.score = estimate.confidence;
       const Eigen::Quaterniond rotation(estimate.orientation[0], estimate.orientation[1],
                                         estimate.orientation[2], estimate.orientation[3]);

@@ -21,6 +21,8 @@
 #include "g6d/pose_array_t.hpp"
 #include "g6d/rgbd_frame_t.hpp"
 #include "g6d/service_status_t.hpp"
+#include "wire/input_adapters.h"
+#include "wire/names.h"  // EstimateStatusName() names the statuses in reports
 
 namespace lcm {
 class LCM;
@@ -47,6 +49,9 @@ struct ReplayOptions {
   /// How long to wait for the answer to a frame after sending it, milliseconds. In wait
   /// mode the next frame goes out after this; in the timed modes it bounds the final wait.
   int timeout_ms = 30000;
+  /// Message type of the log's frames: g6d frames are re-stamped and matched by source,
+  /// seq and utime; drake / bot_core messages are sent as logged and matched by utime.
+  InputType input_type = InputType::kG6d;
 
   /// Empty when valid, else names the bad field.
   std::string Check() const;
@@ -129,8 +134,12 @@ bool WaitForService(lcm::LCM* lcm, const std::string& status_channel,
                     const std::string& input_channel, int timeout_ms,
                     service_status_t* status = nullptr);
 
-/// The name of an estimate status in reports: "ok", "no_solution", ...
-std::string EstimateStatusName(int8_t status);
+/// Writes the answers of the answered frames, in send order, as an LCM event log (the
+/// lcm-logger format, readable by lcm-logplayer and examples/print_poses.py): one event
+/// per answer on `channel`, timestamped with the answer's publication utime. Throws
+/// g6d::Error when the file cannot be written.
+void WriteAnswersLog(const std::string& path, const std::string& channel,
+                     const std::vector<ReplayedFrame>& frames);
 
 /// The BOP results rows of the answered frames: one row per estimate with status OK and a
 /// BOP object id ("obj_000005" -> 5), scene_id and im_id from the answer, score = the

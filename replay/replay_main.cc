@@ -4,12 +4,15 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <filesystem>
+#include <map>
 #include <fstream>
 #include <lcm/lcm-cpp.hpp>
 #include <string>
 
 #include "core/error.h"
 #include "eval/bop_csv.h"
+#include "foreign_log.h"
 #include "frame_log.h"
 #include "replay.h"
 
@@ -98,7 +101,7 @@ int main(int argc, char** argv) {
       "g6d-replay: feed an LCM log of g6d_rgbd_frame_t to a running g6d-service and collect its "
       "answers"};
   std::string log_path, lcm_url, mode = "wait", results_csv, summary_json, estimates_jsonl,
-                                 status_channel = "G6D_STATUS";
+      answers_log, status_channel = "G6D_STATUS", input_type = "g6d", frame_ids;
   int wait_for_service_ms = 0;
   g6d::ReplayOptions options;
   app.add_option("--log", log_path, "LCM log of g6d_rgbd_frame_t (e.g. from g6d-bop2lcm)")
@@ -123,6 +126,16 @@ int main(int argc, char** argv) {
   app.add_option("--estimates-jsonl", estimates_jsonl,
                  "JSON lines to write, one per estimate: ids, status, S_A, confidence, IoU, "
                  "solve time, pose");
+  app.add_option("--input-type", input_type,
+                 "message type of the log's frames: g6d, drake (lcmt_image_array) or bot_core "
+                 "(images_t); foreign messages are sent as logged and matched by utime")
+      ->capture_default_str();
+  app.add_option("--frame-ids", frame_ids,
+                 "scene/image ids of a drake/bot_core log by utime (default: <log>.ids.csv "
+                 "when it exists, as g6d-bop2lcm --as writes it)");
+  app.add_option("--answers-log", answers_log,
+                 "LCM log to write with every answer received (g6d_pose_array_t on the results "
+                 "channel; lcm-logger's format, e.g. for examples/print_poses.py)");
   app.add_option(
          "--wait-for-service-ms", wait_for_service_ms,
          "first wait (at most this long) for a status of the service serving --channel; 0 = "
@@ -135,11 +148,22 @@ int main(int argc, char** argv) {
 
   try {
     g6d::ParseReplayMode(mode, &options);
+    options.input_type = g6d::ParseInputType(input_type);
+    std::map<int64_t, g6d::ForeignFrameIds> ids;
+    if (options.input_type != g6d::InputType::kG6d) {
+      if (frame_ids.empty() && std::filesystem::exists(log_path + ".ids.csv"))
+        frame_ids = log_path + ".ids.csv";
+      if (!frame_ids.empty()) ids = g6d::ReadForeignFrameIds(frame_ids);
+      if (ids.empty())
+        std::fprintf(stderr, "g6d-replay: warning: no frame ids file: answers to %s messages "
+                             "have no scene/image ids, the BOP CSV gets -1\n",
+                     input_type.c_str());
+    }
     const std::string bad = options.Check();
     if (!bad.empty()) G6D_THROW("bad option: " << bad);
 
     // Read the log once first: counts for the progress bar, and its problems up front.
-    const g6d::FrameLogStats scan = g6d::ScanFrameLog(log_path, options.channel);
+    const g6d::FrameLogStats scan = g6d::ScanFrameLog(log_path, options.channel, options.input_type);
     for (const std::string& problem : scan.Problems())
       std::fprintf(stderr, "g6d-replay: warning: %s\n", problem.c_str());
     if (scan.frames == 0)
@@ -161,7 +185,7 @@ int main(int argc, char** argv) {
           status.service_name.c_str(), status.input_channel.c_str(), status.output_channel.c_str(),
           status.num_objects, status.hypotheses, status.workers);
     }
-    g6d::FrameLogReader reader(log_path, options.channel);
+    g6d::FrameLogReader reader(log_path, options.channel, options.input_type, ids);
     ProgressPrinter printer;
     const g6d::ReplayReport report =
         g6d::RunReplay(options, &reader, &lcm, scan.frames,
@@ -182,6 +206,8 @@ int main(int argc, char** argv) {
       WriteText(summary_json, g6d::ReplaySummaryJson(options, reader.stats(), report));
     if (!estimates_jsonl.empty())
       WriteText(estimates_jsonl, g6d::EstimatesJsonLines(report.frames));
+    if (!answers_log.empty())
+      g6d::WriteAnswersLog(answers_log, options.results_channel, report.frames);
 
     const int64_t ok =
         report.estimates_by_status.count("ok") ? report.estimates_by_status.at("ok") : 0;

@@ -23,7 +23,8 @@ esac
 # thread, scheduler and worker pool, and the thread pool itself). The rest of the suite is
 # single-threaded or reaches threads only through these.
 TSAN_TESTS=(service_test service_process_test frame_codec_test mailbox_test service_options_test
-  template_store_test executor_test template_bank_test pipeline_test)
+  template_store_test executor_test template_bank_test pipeline_test lcm_loop_test
+  service_adapters_test)
 TSAN_TARGETS=("${TSAN_TESTS[@]}" g6d-service)
 
 # The ASan subset of the CI run (a cold build of every test under ASan took about 40 of CI's
@@ -39,6 +40,9 @@ asan_environment() {
   export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1:suppressions=${ROOT}/tests/ubsan_suppressions.txt"
   export LSAN_OPTIONS="suppressions=${ROOT}/tests/lsan_suppressions.txt:print_suppressions=0"
 }
+# The input adapters' fuzz target (issue 15), and its unit test in the ASan CI list.
+FUZZ_TARGETS+=(foreign_message)
+ASAN_CI_TESTS+=(input_adapters_test)
 
 START=$(date +%s)
 run_asan_ci() {

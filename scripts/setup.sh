@@ -12,7 +12,7 @@ PACKAGES=(
   build-essential cmake pkg-config ccache git
   liblcm-dev liblcm-bin libglib2.0-dev liblcm-java default-jdk-headless
   libeigen3-dev libopencv-dev libopen3d-dev libassimp-dev libosmesa6-dev
-  libceres-dev libzstd-dev
+  libceres-dev libzstd-dev zlib1g-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libspdlog-dev libcli11-dev nlohmann-json3-dev libyaml-cpp-dev
   python3

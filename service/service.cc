@@ -1,8 +1,6 @@
 #include "service/service.h"
 
-#include <poll.h>
 #include <spdlog/spdlog.h>
-#include <sys/eventfd.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -11,6 +9,7 @@
 #include <cstring>
 #include <sstream>
 
+#include "bot_core/rigid_transform_t.hpp"
 #include "core/error.h"
 
 namespace g6d {
@@ -36,16 +35,6 @@ std::string JoinIds(const std::vector<std::string>& ids) {
 
 }  // namespace
 
-std::string LcmChannelRegex(const std::string& channel) {
-  static const std::string kSpecial = R"(\.^$|()[]{}*+?)";
-  std::string regex;
-  for (char c : channel) {
-    if (kSpecial.find(c) != std::string::npos) regex += '\\';
-    regex += c;
-  }
-  return regex;
-}
-
 Service::Service(const ServiceOptions& options, TemplateStore store, lcm::LCM* lcm)
     : options_(options), store_(std::move(store)), lcm_(lcm) {
   if (const std::string error = options_.Check(); !error.empty())
@@ -64,21 +53,20 @@ Service::~Service() { Stop(); }
 void Service::Start() {
   std::lock_guard<std::mutex> lock(lifecycle_mutex_);
   if (started_) G6D_THROW("Service::Start: already started");
-  wake_fd_ = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
-  if (wake_fd_ < 0) G6D_THROW("Service::Start: eventfd failed: " << std::strerror(errno));
   subscription_ =
       lcm_->subscribe(LcmChannelRegex(options_.input_channel), &Service::OnMessage, this);
   if (subscription_ == nullptr) {
-    close(wake_fd_);
     G6D_THROW("Service::Start: cannot subscribe to '" << options_.input_channel << "'");
   }
   subscription_->setQueueCapacity(options_.subscription_queue);
   started_ = true;
   scheduler_thread_ = std::thread([this] { SchedulerLoop(); });
   status_thread_ = std::thread([this] { StatusLoop(); });
-  lcm_thread_ = std::thread([this] { LcmLoop(); });
-  spdlog::info("serving '{}' -> '{}' (status '{}'), {} workers, K = {}, objects: {}",
-               options_.input_channel, options_.output_channel, options_.status_channel,
+  lcm_thread_ = std::make_unique<LcmHandleThread>(
+      lcm_, [](const std::string& reason) { spdlog::error("LCM thread: {}", reason); });
+  spdlog::info("serving '{}' ({}) -> '{}' (status '{}'), {} workers, K = {}, objects: {}",
+               options_.input_channel, InputTypeName(options_.input_type),
+               options_.output_channel, options_.status_channel,
                options_.workers, solver_options_.num_hypotheses, JoinIds(store_.ObjectIds()));
 }
 
@@ -90,11 +78,7 @@ void Service::Stop() {
   }
   stopped_ = true;
   // 1. Take no more frames: wake the LCM thread out of poll() and join it.
-  const uint64_t one = 1;
-  if (write(wake_fd_, &one, sizeof(one)) != static_cast<ssize_t>(sizeof(one))) {
-    spdlog::error("Service::Stop: cannot wake the LCM thread: {}", std::strerror(errno));
-  }
-  lcm_thread_.join();
+  if (lcm_thread_) lcm_thread_->Stop();
   lcm_->unsubscribe(subscription_);
   subscription_ = nullptr;
   // 2. Drop the waiting frame, abandon instances not yet started, cut running ones short.
@@ -109,8 +93,6 @@ void Service::Stop() {
   }
   status_wake_.notify_all();
   status_thread_.join();
-  close(wake_fd_);
-  wake_fd_ = -1;
   const ServiceCounters counters = Counters();
   spdlog::info("stopped: received {}, processed {}, dropped {}, stale {}, rejected {}",
                counters.frames_received, counters.frames_processed, counters.frames_dropped,
@@ -118,27 +100,6 @@ void Service::Stop() {
 }
 
 // ---- LCM thread ---------------------------------------------------------------------------
-
-void Service::LcmLoop() {
-  const int lcm_fd = lcm_->getFileno();
-  pollfd fds[2] = {{lcm_fd, POLLIN, 0}, {wake_fd_, POLLIN, 0}};
-  for (;;) {
-    fds[0].revents = fds[1].revents = 0;
-    if (poll(fds, 2, -1) < 0) {
-      if (errno == EINTR) continue;
-      spdlog::error("LCM thread: poll failed: {}; no more frames are taken", std::strerror(errno));
-      return;
-    }
-    if (fds[1].revents != 0) return;  // Stop()
-    if (fds[0].revents & (POLLERR | POLLHUP | POLLNVAL)) {
-      spdlog::error("LCM thread: the LCM file descriptor failed; no more frames are taken");
-      return;
-    }
-    if ((fds[0].revents & POLLIN) && lcm_->handle() != 0) {
-      spdlog::warn("LCM thread: lcm handle() reported an error");
-    }
-  }
-}
 
 void Service::OnMessage(const lcm::ReceiveBuffer* buffer, const std::string& channel) {
   const Clock::time_point received = Clock::now();
@@ -160,9 +121,10 @@ void Service::HandleMessage(const void* data, int64_t size, Clock::time_point re
   FrameHeader header;
   rgbd_frame_t message;
   try {
-    message = DecodeRgbdFrameMessage(data, size);
+    // The g6d type as it is; Drake and bot_core images through their adapters.
+    message = AdaptMessage(options_.input_type, data, size, options_.adapter, options_.limits,
+                           input_seq_.fetch_add(1), &header);
   } catch (const Error& e) {
-    PeekRgbdFrameIds(data, size, &header.utime, &header.seq);
     Reject(header, e.what(), received, SecondsBetween(received, Clock::now()));
     return;
   }
@@ -309,6 +271,7 @@ void Service::ProcessJob(const Job& job) {
   processed_.fetch_add(1);
   RecordLatency(answer.total_s);
   Publish(options_.output_channel, answer);
+  if (options_.publish_rigid_transforms) PublishRigidTransforms(answer);
 }
 
 // ---- Status -------------------------------------------------------------------------------
@@ -388,6 +351,18 @@ void Service::RecordLatency(double total_s) {
 
 void Service::Publish(const std::string& channel, const pose_array_t& answer) {
   if (lcm_->publish(channel, &answer) != 0) spdlog::warn("publish on '{}' failed", channel);
+}
+
+void Service::PublishRigidTransforms(const pose_array_t& answer) {
+  for (const pose_estimate_t& estimate : answer.estimates) {
+    if (estimate.status != pose_estimate_t::STATUS_OK) continue;
+    bot_core::rigid_transform_t transform;
+    transform.utime = answer.source_utime;  // the time of the image the pose is about
+    std::copy(estimate.position, estimate.position + 3, transform.trans);
+    std::copy(estimate.orientation, estimate.orientation + 4, transform.quat);
+    const std::string channel = options_.rigid_transform_prefix + estimate.object_id;
+    if (lcm_->publish(channel, &transform) != 0) spdlog::warn("publish on '{}' failed", channel);
+  }
 }
 
 void Service::Publish(const std::string& channel, const service_status_t& status) {

@@ -31,11 +31,12 @@
 #include "core/stats.h"
 #include "g6d/pose_array_t.hpp"
 #include "g6d/service_status_t.hpp"
-#include "service/answer.h"
-#include "service/frame_codec.h"
 #include "service/mailbox.h"
 #include "service/service_options.h"
 #include "service/template_store.h"
+#include "wire/answer.h"
+#include "wire/frame_codec.h"
+#include "wire/lcm_loop.h"
 
 namespace g6d {
 
@@ -90,7 +91,6 @@ class Service {
     double decode_s = 0.0;       ///< LCM decode + validation + image decoding
   };
 
-  void LcmLoop();
   void SchedulerLoop();
   void StatusLoop();
   /// The raw LCM handler: never throws (LCM calls it from C).
@@ -103,6 +103,8 @@ class Service {
   bool IsStale(int64_t frame_utime) const;
   void Publish(const std::string& channel, const pose_array_t& answer);
   void Publish(const std::string& channel, const service_status_t& status);
+  /// bot_core.rigid_transform_t of every OK estimate (publish_rigid_transforms).
+  void PublishRigidTransforms(const pose_array_t& answer);
   void RecordLatency(double total_s);
 
   const ServiceOptions options_;
@@ -115,9 +117,9 @@ class Service {
   std::unique_ptr<ThreadPool> pool_;
   LatestMailbox<Job> mailbox_;
   lcm::Subscription* subscription_ = nullptr;
-  int wake_fd_ = -1;  ///< eventfd that wakes the LCM thread on Stop()
 
-  std::thread lcm_thread_, scheduler_thread_, status_thread_;
+  std::unique_ptr<LcmHandleThread> lcm_thread_;  ///< the only caller of lcm_->handle()
+  std::thread scheduler_thread_, status_thread_;
   std::mutex lifecycle_mutex_;  ///< serializes Start() and Stop()
   bool started_ = false, stopped_ = false;
   std::atomic<bool> abandon_{false};  ///< instances not yet started are abandoned
@@ -127,6 +129,7 @@ class Service {
   std::condition_variable status_wake_;
   bool status_stop_ = false;
 
+  std::atomic<int64_t> input_seq_{0};  ///< seq given to inputs that carry none (bot_core)
   std::atomic<int64_t> received_{0}, processed_{0}, dropped_{0}, stale_{0}, rejected_{0};
   std::atomic<bool> busy_{false};
   mutable std::mutex latency_mutex_;
@@ -135,8 +138,5 @@ class Service {
   Clock::time_point last_reject_log_;
   int64_t unlogged_rejects_ = 0;
 };
-
-/// Escapes regular-expression characters: LCM subscribes by regex, channels are literal.
-std::string LcmChannelRegex(const std::string& channel);
 
 }  // namespace g6d

@@ -70,7 +70,7 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   auto* templates = app.add_option("--templates", flags.templates_dir,
                                    "directory of template caches (.g6dcache)");
-  auto* input = app.add_option("--input", flags.input_channel, "input channel (g6d_rgbd_frame_t)")
+  auto* input = app.add_option("--input", flags.input_channel, "input channel (messages of --input-type)")
                     ->capture_default_str();
   auto* output =
       app.add_option("--output", flags.output_channel, "answer channel (g6d_pose_array_t)")
@@ -99,6 +99,25 @@ int main(int argc, char** argv) {
   auto* shutdown = app.add_option("--shutdown-timeout-s", flags.shutdown_timeout_s,
                                   "bound on the shutdown wait for running solver calls")
                        ->capture_default_str();
+  std::string input_type = "g6d", camera_file, label_map_file;
+  auto* input_type_option =
+      app.add_option("--input-type", input_type,
+                     "message type of --input: g6d (g6d_rgbd_frame_t), drake "
+                     "(drake.lcmt_image_array) or bot_core (bot_core.images_t)")
+          ->capture_default_str();
+  auto* camera_option = app.add_option(
+      "--camera", camera_file,
+      "camera YAML for drake/bot_core input: fx fy cx cy width height (or bot-param pinhole)");
+  auto* label_map_option = app.add_option(
+      "--label-map", label_map_file,
+      "label map YAML for drake/bot_core input: labels: {<label value>: <object id>}");
+  auto* rigid = app.add_flag("--publish-rigid-transforms", flags.publish_rigid_transforms,
+                             "also publish each OK pose as bot_core.rigid_transform_t on "
+                             "<prefix><object id>");
+  auto* rigid_prefix =
+      app.add_option("--rigid-transform-prefix", flags.rigid_transform_prefix,
+                     "channel prefix of those transforms")
+          ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   g6d::ServiceOptions options = defaults;
@@ -122,6 +141,16 @@ int main(int argc, char** argv) {
   if (given(name)) options.name = flags.name;
   if (given(queue)) options.subscription_queue = flags.subscription_queue;
   if (given(shutdown)) options.shutdown_timeout_s = flags.shutdown_timeout_s;
+  if (given(rigid)) options.publish_rigid_transforms = flags.publish_rigid_transforms;
+  if (given(rigid_prefix)) options.rigid_transform_prefix = flags.rigid_transform_prefix;
+  try {
+    if (given(input_type_option)) options.input_type = g6d::ParseInputType(input_type);
+    if (given(camera_option)) options.adapter.camera = g6d::LoadCameraYaml(camera_file);
+    if (given(label_map_option)) options.adapter.label_objects = g6d::LoadLabelMapYaml(label_map_file);
+  } catch (const g6d::Error& e) {
+    spdlog::critical("{}", e.what());
+    return 2;
+  }
   if (const std::string error = options.Check(); !error.empty()) {
     spdlog::critical("bad options: {}", error);
     return 2;

@@ -42,6 +42,10 @@ std::string ServiceOptions::Check() const {
     out << "limits." << error;
   else if (const std::string error = solver.Check(); !error.empty())
     out << "solver." << error;
+  else if (const std::string error = adapter.Check(input_type); !error.empty())
+    out << error;
+  else if (publish_rigid_transforms && rigid_transform_prefix.empty())
+    out << "rigid_transform_prefix must not be empty";
   return out.str();
 }
 
@@ -120,6 +124,37 @@ void ParseServiceOptionsYaml(const std::string& text, const std::string& name,
             {"status_period_s", double_field(&o.status_period_s)},
             {"latency_window", int_field(&o.latency_window)},
             {"shutdown_timeout_s", double_field(&o.shutdown_timeout_s)},
+            {"input_type",
+             [&](const YAML::Node& n, const std::string& key) {
+               try {
+                 o.input_type = ParseInputType(As<std::string>(n, name, key));
+               } catch (const Error& e) {
+                 G6D_THROW(name << ": key '" << key << "': " << e.what());
+               }
+             }},
+            {"camera",
+             [&](const YAML::Node& n, const std::string& key) {
+               YAML::Emitter text;
+               text << n;
+               o.adapter.camera = ParseCameraYaml(text.c_str(), name + ": " + key);
+             }},
+            {"camera_file",
+             [&](const YAML::Node& n, const std::string& key) {
+               o.adapter.camera = LoadCameraYaml(As<std::string>(n, name, key));
+             }},
+            {"labels",
+             [&](const YAML::Node& n, const std::string& key) {
+               YAML::Emitter text;
+               text << n;
+               o.adapter.label_objects = ParseLabelMapYaml(text.c_str(), name + ": " + key);
+             }},
+            {"label_map_file",
+             [&](const YAML::Node& n, const std::string& key) {
+               o.adapter.label_objects = LoadLabelMapYaml(As<std::string>(n, name, key));
+             }},
+            {"camera_id", string_field(&o.adapter.camera_id)},
+            {"publish_rigid_transforms", bool_field(&o.publish_rigid_transforms)},
+            {"rigid_transform_prefix", string_field(&o.rigid_transform_prefix)},
             {"limits",
              [&](const YAML::Node& n, const std::string& key) {
                ApplyMap(n, name, key,

@@ -6,8 +6,9 @@
 
 #include <string>
 
-#include "service/frame_codec.h"
 #include "solver/pipeline.h"
+#include "wire/frame_codec.h"
+#include "wire/input_adapters.h"
 
 namespace g6d {
 
@@ -17,7 +18,7 @@ struct ServiceOptions {
   std::string name;
   /// Directory holding the template caches (every regular file in it is tried).
   std::string templates_dir;
-  std::string input_channel = "G6D_RGBD";     ///< g6d_rgbd_frame_t in
+  std::string input_channel = "G6D_RGBD";     ///< frames in (of input_type)
   std::string output_channel = "G6D_POSES";   ///< g6d_pose_array_t out, one per frame
   std::string status_channel = "G6D_STATUS";  ///< g6d_service_status_t out, every status_period_s
   /// LCM provider URL, e.g. "udpm://239.255.76.67:7667?ttl=1&recv_buf_size=8388608";
@@ -43,6 +44,15 @@ struct ServiceOptions {
   /// instances not yet started are abandoned at once).
   double shutdown_timeout_s = 1.5;
   DecodeLimits limits;  ///< bounds on declared image sizes and instance counts
+  /// Message type of the input channel: g6d (g6d.rgbd_frame_t), drake
+  /// (drake.lcmt_image_array) or bot_core (bot_core.images_t); wire/input_adapters.h.
+  InputType input_type = InputType::kG6d;
+  /// Intrinsics, label map and camera id of a drake / bot_core input (unused for g6d).
+  AdapterOptions adapter;
+  /// Also publish every OK estimate's cam_from_object as bot_core.rigid_transform_t on
+  /// rigid_transform_prefix + object id (e.g. G6D_POSE_obj_000005).
+  bool publish_rigid_transforms = false;
+  std::string rigid_transform_prefix = "G6D_POSE_";  ///< channel prefix of those transforms
   /// Solver options; `solver.num_hypotheses` is K (--hypotheses).
   SolverOptions solver = [] {
     SolverOptions options;
@@ -56,6 +66,9 @@ struct ServiceOptions {
 
 /// Reads a YAML options file into `options` (keys not in the file keep their values).
 /// Keys: name, templates, input, output, status, lcm_url, workers, hypotheses, max_age_ms,
+/// input_type (g6d|drake|bot_core), camera (a mapping as in a camera YAML, see
+/// ParseCameraYaml) or camera_file, labels (label value -> object id) or label_map_file,
+/// camera_id, publish_rigid_transforms, rigid_transform_prefix,
 /// subscription_queue, status_period_s, latency_window, shutdown_timeout_s,
 /// limits: {max_width, max_height, max_raw_bytes, max_instances},
 /// solver: {max_sets, hamming_threshold, min_correspondences, query_features, run_icp,

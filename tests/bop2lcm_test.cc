@@ -16,7 +16,7 @@
 #include "core/error.h"
 #include "eval/bop.h"
 #include "process_util.h"
-#include "service/frame_codec.h"
+#include "wire/frame_codec.h"
 #include "synthetic_bop.h"
 #include "test_util.h"
 

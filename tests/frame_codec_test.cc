@@ -1,7 +1,7 @@
 // EncodeImage/DecodeImage round trips for every pixel format x compression, and every bad
 // input the service must refuse with a clear message (DecodeImage, DecodeFrame and the
 // raw LCM message check).
-#include "service/frame_codec.h"
+#include "wire/frame_codec.h"
 
 #include <gtest/gtest.h>
 

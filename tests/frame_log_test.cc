@@ -13,7 +13,7 @@
 
 #include "core/error.h"
 #include "g6d/pose_array_t.hpp"
-#include "service/frame_codec.h"
+#include "wire/frame_codec.h"
 #include "test_util.h"
 
 namespace g6d {

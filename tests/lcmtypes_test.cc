@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -11,7 +12,12 @@
 
 #include "g6d/pose_array_t.hpp"
 #include "g6d/rgbd_frame_t.hpp"
+#include "bot_core/images_t.hpp"
+#include "bot_core/rigid_transform_t.hpp"
+#include "drake/lcmt_image_array.hpp"
 #include "g6d/service_status_t.hpp"
+#include "process_util.h"
+#include "test_paths.h"
 
 namespace {
 
@@ -165,6 +171,59 @@ TEST(ServiceStatus, TravelsOverMemqBus) {
   ASSERT_GT(bus.handleTimeout(1000), 0);
   ASSERT_EQ(receiver.channels.size(), 1u);
   EXPECT_EQ(receiver.objects, status.objects);
+}
+
+// The foreign types round-trip like ours, and nested types are part of the fingerprint.
+TEST(ForeignTypes, BotCoreImagesAndDrakeImageArrayRoundTrip) {
+  bot_core::images_t images;
+  images.utime = 99;
+  images.n_images = 1;
+  images.image_types = {bot_core::images_t::DEPTH_MM_ZIPPED};
+  bot_core::image_t image;
+  image.utime = 99;
+  image.width = 2;
+  image.height = 1;
+  image.row_stride = 4;
+  image.pixelformat = bot_core::image_t::PIXEL_FORMAT_INVALID;
+  image.data = {1, 2, 3};
+  image.size = 3;
+  image.nmetadata = 0;
+  images.images = {image};
+  std::vector<uint8_t> bytes(static_cast<size_t>(images.getEncodedSize()));
+  ASSERT_EQ(images.encode(bytes.data(), 0, static_cast<int>(bytes.size())),
+            static_cast<int>(bytes.size()));
+  bot_core::images_t decoded;
+  ASSERT_EQ(decoded.decode(bytes.data(), 0, static_cast<int>(bytes.size())),
+            static_cast<int>(bytes.size()));
+  EXPECT_EQ(decoded.images[0].data, image.data);
+  EXPECT_EQ(decoded.image_types[0], 6);  // DEPTH_MM_ZIPPED, as every bot_core publisher uses it
+  EXPECT_NE(bot_core::images_t::getHash(), bot_core::image_t::getHash());
+  EXPECT_NE(drake::lcmt_image_array::getHash(), drake::lcmt_image::getHash());
+  // A rigid transform is not an image array: the fingerprint check refuses it.
+  bot_core::rigid_transform_t transform{};
+  std::vector<uint8_t> transform_bytes(static_cast<size_t>(transform.getEncodedSize()));
+  transform.encode(transform_bytes.data(), 0, static_cast<int>(transform_bytes.size()));
+  drake::lcmt_image_array array;
+  EXPECT_LT(array.decode(transform_bytes.data(), 0, static_cast<int>(transform_bytes.size())), 0);
+}
+
+// lcm-spy's jar and the Python classes hold every package (where Java is installed).
+TEST(GeneratedBindings, JarAndPythonHoldEveryPackage) {
+  const std::string dir = g6d::test::BinaryDir() + "/lcmtypes";
+  for (const char* file : {"/python/g6d/pose_array_t.py", "/python/bot_core/images_t.py",
+                           "/python/drake/lcmt_image_array.py"}) {
+    EXPECT_TRUE(std::ifstream(dir + file).good()) << dir + file;
+  }
+  if (!std::ifstream(dir + "/g6d_lcmtypes.jar").good()) {
+    GTEST_SKIP() << "no " << dir << "/g6d_lcmtypes.jar (Java or lcm.jar not installed)";
+  }
+  const g6d::test::CommandResult listing = g6d::test::RunCommand("unzip -l " + dir + "/g6d_lcmtypes.jar");
+  ASSERT_EQ(listing.exit_code, 0) << listing.output;
+  for (const char* entry : {"g6d/pose_array_t.class", "bot_core/images_t.class",
+                            "bot_core/rigid_transform_t.class", "drake/lcmt_image_array.class",
+                            "drake/lcmt_header.class"}) {
+    EXPECT_NE(listing.output.find(entry), std::string::npos) << entry << " not in the jar";
+  }
 }
 
 }  // namespace

@@ -28,7 +28,7 @@
 #include "render/raster.h"
 #include "sample/sample_scene.h"
 #include "sample_test_util.h"
-#include "service/frame_codec.h"
+#include "wire/frame_codec.h"
 #include "templates/cache.h"
 
 namespace g6d {

@@ -17,6 +17,7 @@
 #include <fstream>
 #include <lcm/lcm-cpp.hpp>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -30,9 +31,10 @@
 #include "frame_log.h"
 #include "g6d/service_status_t.hpp"
 #include "process_util.h"
-#include "service/frame_codec.h"
 #include "synthetic_bop.h"
 #include "test_util.h"
+#include "wire/frame_codec.h"
+#include "wire/lcm_loop.h"
 
 namespace g6d {
 namespace {
@@ -425,13 +427,7 @@ class AnswerListener {
       : lcm_(url) {
     lcm_.subscribe(results_channel, &AnswerListener::HandleAnswer, this);
     lcm_.subscribe(status_channel, &AnswerListener::HandleStatus, this);
-    thread_ = std::thread([this] {
-      while (!stop_) lcm_.handleTimeout(50);
-    });
-  }
-  ~AnswerListener() {
-    stop_ = true;
-    thread_.join();
+    if (lcm_.good()) handle_thread_ = std::make_unique<LcmHandleThread>(&lcm_);
   }
 
   bool good() { return lcm_.good(); }
@@ -461,12 +457,11 @@ class AnswerListener {
 
  private:
   lcm::LCM lcm_;
-  std::atomic<bool> stop_{false};
   std::mutex mutex_;
   std::condition_variable changed_;
   std::vector<pose_array_t> answers_;
   int loaded_objects_ = 0;
-  std::thread thread_;
+  std::unique_ptr<LcmHandleThread> handle_thread_;  ///< last: stops first
 };
 
 // bop2lcm -> log -> g6d-replay (wait) -> the real g6d-service -> CSV: ids preserved exactly,
@@ -514,12 +509,13 @@ TEST(ReplayEndToEnd, SyntheticBopThroughTheRealService) {
       << service_log();
 
   const std::string csv = dir + "/results.csv", summary_path = dir + "/summary.json",
-                    jsonl = dir + "/estimates.jsonl";
+                    jsonl = dir + "/estimates.jsonl", answers_log = dir + "/answers.lcmlog";
   const test::CommandResult replay =
       test::RunCommand(kReplay + " --log " + log_path +
                        " --channel E2E_RGBD --results-channel E2E_POSES --lcm-url '" + url +
                        "' --mode wait --timeout-ms 60000 --results-csv " + csv +
-                       " --summary-json " + summary_path + " --estimates-jsonl " + jsonl);
+                       " --summary-json " + summary_path + " --estimates-jsonl " + jsonl +
+                       " --answers-log " + answers_log);
   ASSERT_EQ(replay.exit_code, 0) << replay.output << "\nservice log:\n" << service_log();
   EXPECT_EQ(service.Stop(), 0) << "g6d-service should exit 0 on SIGTERM; its log:\n"
                                << service_log();
@@ -623,6 +619,115 @@ TEST(ReplayEndToEnd, SyntheticBopThroughTheRealService) {
         (rows[i].cam_from_object.translation() - expected[i].cam_from_object.translation()).norm(),
         1e-12);
   }
+
+  // examples/print_poses.py reads the answers g6d-replay logged (lcm-logger's format) with
+  // the generated pure-Python classes and prints each one's object, pose, S_A, confidence.
+  const std::string python_types = test::BinaryDir() + "/lcmtypes/python";
+  ASSERT_TRUE(std::filesystem::exists(python_types + "/g6d/pose_array_t.py")) << python_types;
+  const test::CommandResult printed = test::RunCommand(
+      "python3 " + test::SourceDir() + "/examples/print_poses.py --log " + answers_log +
+      " --channel E2E_POSES --types " + python_types);
+  ASSERT_EQ(printed.exit_code, 0) << printed.output;
+  EXPECT_THAT(printed.output, HasSubstr("2 answers on E2E_POSES"));
+  int printed_ok = 0;
+  for (const pose_array_t& answer : answers) {
+    for (const pose_estimate_t& estimate : answer.estimates) {
+      if (estimate.status != pose_estimate_t::STATUS_OK) {
+        EXPECT_THAT(printed.output, HasSubstr(estimate.object_id + " label " +
+                                              std::to_string(estimate.label) + ": "));
+        continue;
+      }
+      char line[512];
+      std::snprintf(line, sizeof(line),
+                    "%s label %d: ok t = [%.4f %.4f %.4f] m  q = [%.5f %.5f %.5f %.5f]  "
+                    "S_A = %.4f  confidence = %.3f",
+                    estimate.object_id.c_str(), estimate.label, estimate.position[0],
+                    estimate.position[1], estimate.position[2], estimate.orientation[0],
+                    estimate.orientation[1], estimate.orientation[2], estimate.orientation[3],
+                    estimate.score, estimate.confidence);
+      EXPECT_THAT(printed.output, HasSubstr(line));
+      ++printed_ok;
+    }
+  }
+  EXPECT_EQ(printed_ok, static_cast<int>(expected.size()));
+  // Not an LCM log: a clear error, exit status 1.
+  const test::CommandResult not_a_log = test::RunCommand(
+      "python3 " + test::SourceDir() + "/examples/print_poses.py --log " + csv + " --types " +
+      python_types);
+  EXPECT_EQ(not_a_log.exit_code, 1);
+  EXPECT_THAT(not_a_log.output, HasSubstr("not an LCM log"));
+}
+
+// g6d-bop2lcm --as drake / bot_core writes the scene as those stacks' messages plus the
+// service options file LOG.yaml; the real g6d-service reads them with nothing but
+// --templates and --config LOG.yaml, g6d-replay --input-type matches the answers by utime,
+// and the BOP CSV is the native log's, row for row (lossless here: raw colour, and depth in
+// whole millimetres so bot_core's DEPTH_MM loses nothing).
+TEST(ReplayEndToEnd, DrakeAndBotCoreLogsGiveTheNativePoses) {
+  if (!std::filesystem::exists(kService)) GTEST_SKIP() << kService << " is not built";
+  const std::string dir = test::TempDir("replay_foreign");
+  test::SyntheticBopOptions bop_options;
+  bop_options.depth_scale = 1.0;
+  const test::SyntheticBop dataset = test::WriteSyntheticBopDataset(dir + "/tiny", bop_options);
+  std::filesystem::create_directories(dir + "/caches");
+  for (int obj_id : dataset.obj_ids) {
+    const std::string name = BopObjectName(obj_id);
+    const test::CommandResult build = test::RunCommand(
+        kBuildTemplates + " --mesh " + dir + "/tiny/models/" + name + ".ply --units mm --object-id " +
+        name + " --out " + dir + "/caches/" + name + ".g6dcache --views 72 --threads 2");
+    ASSERT_EQ(build.exit_code, 0) << build.output;
+  }
+  const int port = 20000 + static_cast<int>((::getpid() + 7) % 20000);
+  const std::string url =
+      "udpm://239.255.76.67:" + std::to_string(port) + "?ttl=0&recv_buf_size=4194304";
+
+  // One log per type, served by a service started from its LOG.yaml, replayed to a CSV.
+  auto run = [&](const std::string& as, const std::string& color) -> std::vector<BopEstimate> {
+    SCOPED_TRACE("--as " + as + " --color " + color);
+    const std::string log = dir + "/" + as + "_" + color + ".lcmlog";
+    const test::CommandResult convert =
+        test::RunCommand(kBop2Lcm + " --dataset " + dir + "/tiny --scene 1 --channel CAM --as " +
+                         as + " --color " + color + " --out " + log);
+    EXPECT_EQ(convert.exit_code, 0) << convert.output;
+    EXPECT_TRUE(std::filesystem::exists(log + ".yaml"));
+    AnswerListener listener(url, "F_POSES", "F_STATUS");
+    EXPECT_TRUE(listener.good());
+    test::ChildProcess service({kService, "--templates", dir + "/caches", "--config", log + ".yaml",
+                                "--output", "F_POSES", "--status", "F_STATUS", "--lcm-url", url},
+                               log + ".service.log");
+    EXPECT_TRUE(listener.WaitForService(2, std::chrono::seconds(60)));
+    const std::string csv = log + ".csv";
+    const test::CommandResult replay = test::RunCommand(
+        kReplay + " --log " + log + " --channel CAM --input-type " + as +
+        " --results-channel F_POSES --lcm-url '" + url + "' --timeout-ms 60000 --results-csv " + csv);
+    EXPECT_EQ(replay.exit_code, 0) << replay.output;
+    EXPECT_THAT(replay.output, HasSubstr("sent 2, answered 2, lost 0"));
+    EXPECT_EQ(service.Stop(), 0);
+    return ReadBopCsv(csv);
+  };
+  const std::vector<BopEstimate> native = run("g6d", "png");
+  ASSERT_GE(native.size(), 1u);
+  for (const std::string as : {"drake", "bot_core"}) {
+    const std::vector<BopEstimate> rows = run(as, "raw");
+    ASSERT_EQ(rows.size(), native.size()) << as;
+    for (size_t i = 0; i < rows.size(); ++i) {
+      SCOPED_TRACE(as + " row " + std::to_string(i));
+      EXPECT_EQ(rows[i].scene_id, native[i].scene_id);
+      EXPECT_EQ(rows[i].im_id, native[i].im_id);
+      EXPECT_EQ(rows[i].obj_id, native[i].obj_id);
+      EXPECT_EQ(rows[i].score, native[i].score);
+      EXPECT_EQ(rows[i].cam_from_object.linear(), native[i].cam_from_object.linear());
+      EXPECT_EQ(rows[i].cam_from_object.translation(), native[i].cam_from_object.translation());
+    }
+  }
+  // bot_core with MJPEG colour: every frame answered; the poses are JPEG's to move.
+  EXPECT_EQ(run("bot_core", "jpeg").size(), native.size());
+  // The options file of a foreign log says everything the service needs.
+  std::ifstream yaml(dir + "/drake_raw.lcmlog.yaml");
+  const std::string text((std::istreambuf_iterator<char>(yaml)), std::istreambuf_iterator<char>());
+  EXPECT_THAT(text, HasSubstr("input_type: drake"));
+  EXPECT_THAT(text, HasSubstr("camera: {fx: 572.39999999999998"));
+  EXPECT_THAT(text, HasSubstr("labels:\n  1: obj_000001\n  2: obj_000002\n"));
 }
 
 }  // namespace

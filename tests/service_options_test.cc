@@ -1,9 +1,11 @@
 // ServiceOptions: defaults, Check() and the YAML file format.
 #include "service/service_options.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <map>
 #include <string>
 
 #include "core/error.h"
@@ -136,6 +138,51 @@ TEST(LoadServiceOptionsYaml, ReadsAFileAndNamesAMissingOne) {
   LoadServiceOptionsYaml(dir + "/service.yaml", &options);
   EXPECT_EQ(options.solver.num_hypotheses, 7);
   EXPECT_THROW(LoadServiceOptionsYaml(dir + "/missing.yaml", &options), Error);
+}
+
+// Drake / bot_core input and the rigid transform output from YAML (issue 15).
+TEST(ParseServiceOptionsYaml, ReadsTheInputAdapterKeys) {
+  ServiceOptions options;
+  options.templates_dir = "caches";
+  ParseServiceOptionsYaml(R"(
+input: DRAKE_RGBD
+input_type: drake
+camera: {fx: 600, fy: 601, cx: 320.5, cy: 240.5, width: 640, height: 480}
+labels: {1: obj_000005, 4: obj_000008}
+camera_id: head
+publish_rigid_transforms: true
+rigid_transform_prefix: POSE_
+)",
+                          "drake.yaml", &options);
+  EXPECT_EQ(options.input_type, InputType::kDrake);
+  EXPECT_EQ(options.adapter.camera.fx, 600.0);
+  EXPECT_EQ(options.adapter.camera.cy, 240.5);
+  EXPECT_EQ(options.adapter.camera.width, 640);
+  EXPECT_EQ(options.adapter.label_objects,
+            (std::map<int32_t, std::string>{{1, "obj_000005"}, {4, "obj_000008"}}));
+  EXPECT_EQ(options.adapter.camera_id, "head");
+  EXPECT_TRUE(options.publish_rigid_transforms);
+  EXPECT_EQ(options.rigid_transform_prefix, "POSE_");
+  EXPECT_EQ(options.Check(), "");
+
+  // bot-param's pinhole layout works inline too; a missing label map is named by Check().
+  ServiceOptions bot;
+  bot.templates_dir = "caches";
+  ParseServiceOptionsYaml(
+      "input_type: bot_core\ncamera: {pinhole: [600, 601, 0, 320.5, 240.5], width: 640, "
+      "height: 480}\n",
+      "bot.yaml", &bot);
+  EXPECT_EQ(bot.input_type, InputType::kBotCore);
+  EXPECT_EQ(bot.adapter.camera.cx, 320.5);
+  EXPECT_THAT(bot.Check(), testing::HasSubstr("needs a label map"));
+
+  try {
+    ParseServiceOptionsYaml("input_type: ros\n", "ros.yaml", &bot);
+    ADD_FAILURE() << "input_type ros accepted";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), testing::HasSubstr("ros.yaml: key 'input_type': input type 'ros' is "
+                                             "not one of g6d, drake, bot_core"));
+  }
 }
 
 }  // namespace

@@ -170,7 +170,7 @@ TEST_F(ServiceProcessTest, AnswersOverUdpmAndStopsOnSigterm) {
   lcm::LCM lcm(url);
   ASSERT_TRUE(lcm.good()) << url;
   test::ServiceListener listener(&lcm, "G6D_POSES", "G6D_STATUS");
-  test::LcmPump pump(&lcm);
+  LcmHandleThread pump(&lcm);
   ServiceProcess service({"--config", *dir_ + "/service.yaml", "--lcm-url", url},
                          *dir_ + "/single.log");
   ASSERT_TRUE(service.started());
@@ -239,7 +239,7 @@ TEST_F(ServiceProcessTest, SigtermCutsARunningK36SolveShort) {
   lcm::LCM lcm(url);
   ASSERT_TRUE(lcm.good()) << url;
   test::ServiceListener listener(&lcm, "G6D_POSES", "G6D_STATUS");
-  test::LcmPump pump(&lcm);
+  LcmHandleThread pump(&lcm);
   ServiceProcess service({"--config", yaml, "--lcm-url", url}, *dir_ + "/k36.log");
   ASSERT_TRUE(service.started());
   ASSERT_TRUE(WaitUntilUp(&listener).has_value()) << service.Log();
@@ -280,7 +280,7 @@ TEST_F(ServiceProcessTest, TwoServicesOnOneBusAnswerOnlyTheirOwnFrames) {
     listeners.push_back(std::make_unique<test::ServiceListener>(&lcm, "G6D_POSES_" + camera,
                                                                 "G6D_STATUS_" + camera));
   }
-  test::LcmPump pump(&lcm);
+  LcmHandleThread pump(&lcm);
   for (const std::string& camera : cameras) {
     services.push_back(std::make_unique<ServiceProcess>(
         std::vector<std::string>{"--config", *dir_ + "/service.yaml", "--lcm-url", url, "--name",

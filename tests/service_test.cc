@@ -12,10 +12,10 @@
 #include <string>
 #include <vector>
 
-#include "bad_frames.h"
+#include "wire/bad_frames.h"
 #include "core/se3.h"
 #include "eval/metrics.h"
-#include "service/answer.h"
+#include "wire/answer.h"
 #include "service_test_util.h"
 
 namespace g6d {

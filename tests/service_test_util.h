@@ -1,12 +1,8 @@
 #pragma once
 /// @file service_test_util.h
-/// Helpers for the service tests and the service load benchmark: a synthetic object with a
-/// small template bank, rendered frames encoded as g6d_rgbd_frame_t, an LCM pump thread
-/// and a listener that collects answers and status messages.
-
-#include <poll.h>
-#include <sys/eventfd.h>
-#include <unistd.h>
+/// Helpers for the service tests: the synthetic service scene and its frames (from
+/// lib/synthetic and wire/, shared with the benchmarks), and a listener that collects
+/// answers and status messages.
 
 #include <chrono>
 #include <cmath>
@@ -24,101 +20,20 @@
 #include "g6d/pose_array_t.hpp"
 #include "g6d/rgbd_frame_t.hpp"
 #include "g6d/service_status_t.hpp"
-#include "lcm_pump.h"
 #include "mesh/mesh.h"
 #include "render/gl_renderer.h"
-#include "service/frame_codec.h"
 #include "solver/pipeline.h"
-#include "synthetic_scene.h"
+#include "synthetic/service_scene.h"
+#include "synthetic/synthetic_scene.h"
 #include "templates/template_bank.h"
+#include "wire/frame_codec.h"
+#include "wire/lcm_loop.h"
+#include "wire/synthetic_frame.h"
 
 namespace g6d::test {
 
-/// The camera of the synthetic service scenes (LM-O-like intrinsics, 640 x 480).
-inline const Camera kServiceCamera{572.4, 573.6, 325.3, 242.0, 640, 480};
-
-/// Object id of the synthetic box in the service tests.
-inline const char kBoxId[] = "box_000001";
-
-/// A textured box, a small template bank for it and some rendered views.
-struct ServiceScene {
-  Mesh mesh;
-  TemplateBank bank;
-  std::vector<SyntheticView> views;
-};
-
-/// Template options for quick tests: fewer views than the paper's 324.
-inline TemplateBuildOptions QuickTemplateOptions() {
-  TemplateBuildOptions options;
-  options.views.num_directions = 60;
-  options.views.num_inplane = 3;
-  return options;
-}
-
-/// Solver options that keep one instance well under a second on one core (K = 2, fewer
-/// correspondence sets and MHPO rounds than the paper's defaults).
-inline SolverOptions QuickSolverOptions() {
-  SolverOptions options;
-  options.num_hypotheses = 2;
-  options.match.max_sets = 48;
-  options.query_orb.max_features = 300;
-  options.mhpo.max_rounds = 2;
-  return options;
-}
-
-/// Builds the box, its bank and `num_views` views at random poses 0.5-0.8 m away.
-inline ServiceScene MakeServiceScene(int num_views, uint64_t seed) {
-  ServiceScene scene;
-  scene.mesh = MakeTexturedBox(0.10, 0.07, 0.05, 21);
-  ThreadPool pool(2);
-  scene.bank = BuildTemplateBank(scene.mesh, kBoxId, QuickTemplateOptions(), &pool);
-  GlRenderer renderer(scene.mesh);
-  std::mt19937_64 rng(seed);
-  for (int i = 0; i < num_views; ++i) {
-    SyntheticOptions options;
-    options.seed = seed + static_cast<uint64_t>(i);
-    scene.views.push_back(RenderSyntheticView(&renderer, scene.mesh, kServiceCamera,
-                                              RandomPose(kServiceCamera, 0.5, 0.8, &rng), options));
-  }
-  return scene;
-}
-
-/// Encodes `view` as one frame with one instance (label 1) of `object_id`: colour RGB8
-/// (`color_compression`), depth DEPTH_U16 in millimetres (zstd), labels LABEL_U8 (zstd).
-inline rgbd_frame_t MakeRgbdFrame(const SyntheticView& view, int64_t seq,
-                                  const std::string& object_id,
-                                  const std::string& camera_id = "cam0",
-                                  int8_t color_compression = image_t::COMPRESSION_NONE) {
-  rgbd_frame_t frame;
-  frame.utime = std::chrono::duration_cast<std::chrono::microseconds>(
-                    std::chrono::system_clock::now().time_since_epoch())
-                    .count();
-  frame.seq = seq;
-  frame.camera_id = camera_id;
-  frame.source = "service_test";
-  frame.scene_id = 1;
-  frame.image_id = static_cast<int32_t>(seq);
-  frame.fx = kServiceCamera.fx;
-  frame.fy = kServiceCamera.fy;
-  frame.cx = kServiceCamera.cx;
-  frame.cy = kServiceCamera.cy;
-  frame.depth_scale_m = 0.001;
-  frame.color = EncodeImage(view.rgb, image_t::FORMAT_RGB8, color_compression);
-  cv::Mat depth_mm;
-  view.depth.convertTo(depth_mm, CV_16U, 1000.0);
-  frame.depth = EncodeImage(depth_mm, image_t::FORMAT_DEPTH_U16, image_t::COMPRESSION_ZSTD);
-  cv::Mat labels;
-  cv::threshold(view.mask, labels, 0, 1, cv::THRESH_BINARY);
-  frame.labels = EncodeImage(labels, image_t::FORMAT_LABEL_U8, image_t::COMPRESSION_ZSTD);
-  instance_t instance;
-  instance.object_id = object_id;
-  instance.label = 1;
-  instance.score = 1.0f;
-  instance.gt_index = 0;
-  frame.instances = {instance};
-  frame.num_instances = 1;
-  return frame;
-}
+// The shared generators keep their test:: names in the tests.
+using namespace g6d::synthetic;  // NOLINT(build/namespaces)
 
 /// cam_from_object of an estimate.
 inline Eigen::Isometry3d PoseOf(const pose_estimate_t& estimate) {

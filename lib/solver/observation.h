@@ -9,15 +9,9 @@
 #include <opencv2/core.hpp>
 
 #include "core/camera.h"
+#include "core/frame.h"
 
 namespace g6d {
-
-/// One RGB-D frame as the solver sees it.
-struct Frame {
-  Camera camera;  ///< intrinsics and image size
-  cv::Mat rgb;    ///< CV_8UC3, RGB order
-  cv::Mat depth;  ///< CV_32F, metres along the optical axis; 0 (or NaN) = no measurement
-};
 
 /// A mask and depth resampled onto a (cropped, scaled) region of interest of the image.
 /// Grid pixel (u, v) samples the source pixel containing the grid pixel's centre.

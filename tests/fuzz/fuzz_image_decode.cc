@@ -14,7 +14,7 @@
 
 #include "core/error.h"
 #include "fuzz_limits.h"
-#include "service/frame_codec.h"
+#include "wire/frame_codec.h"
 
 namespace {
 

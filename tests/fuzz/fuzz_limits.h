@@ -4,7 +4,7 @@
 
 #include <cstdint>
 
-#include "service/frame_codec.h"
+#include "wire/frame_codec.h"
 
 namespace g6d::fuzz {
 

@@ -8,6 +8,7 @@
 // FUZZ_DIR defaults to the source tree's tests/fuzz. Each corpus/<name>/ folder is
 // replaced as a whole; regressions/ is never touched.
 #include <unistd.h>
+#include <zlib.h>
 #include <zstd.h>
 
 #include <array>
@@ -22,16 +23,19 @@
 #include <iterator>
 #include <limits>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "bot_core/images_t.hpp"
 #include "core/error.h"
+#include "drake/lcmt_image_array.hpp"
 #include "eval/bop_csv.h"
 #include "g6d/rgbd_frame_t.hpp"
-#include "service/frame_codec.h"
+#include "wire/frame_codec.h"
 #include "templates/cache.h"
 #include "test_meshes.h"
 
@@ -582,6 +586,116 @@ void MakeBopCsvSeeds(const fs::path& fuzz_dir) {
   corpus.Report();
 }
 
+// ---- foreign_message ------------------------------------------------------------------
+// A type byte (0 Drake, 1 bot_core), then the message, 64 x 48 as the harness's camera.
+
+std::vector<uint8_t> ZlibBytes(const cv::Mat& image) {
+  const cv::Mat packed = image.isContinuous() ? image : image.clone();
+  uLongf size = compressBound(static_cast<uLong>(packed.total() * packed.elemSize()));
+  std::vector<uint8_t> out(size);
+  if (compress2(out.data(), &size, packed.data, static_cast<uLong>(packed.total() * packed.elemSize()),
+                6) != Z_OK)
+    G6D_THROW("zlib compression failed");
+  out.resize(size);
+  return out;
+}
+
+template <typename Message>
+std::string TypedSeed(uint8_t type, const Message& message) {
+  std::string bytes(static_cast<size_t>(message.getEncodedSize()) + 1, '\0');
+  bytes[0] = static_cast<char>(type);
+  if (message.encode(bytes.data() + 1, 0, static_cast<int>(bytes.size()) - 1) < 0)
+    G6D_THROW("encode failed");
+  return bytes;
+}
+
+void MakeForeignSeeds(const fs::path& fuzz_dir) {
+  Corpus corpus(fuzz_dir, "foreign_message");
+  cv::Mat rgb(48, 64, CV_8UC3), depth_m(48, 64, CV_32F, cv::Scalar(0.6)), labels(48, 64, CV_16S,
+                                                                               cv::Scalar(0));
+  cv::randu(rgb, 0, 256);
+  labels(cv::Rect(10, 10, 12, 9)) = 1;
+  labels(cv::Rect(40, 20, 9, 9)) = 2;
+  labels(cv::Rect(0, 40, 4, 4)) = 7;  // in no label map
+  auto drake_image = [](const cv::Mat& image, int8_t format, int8_t channel, bool zlib) {
+    drake::lcmt_image message;
+    message.header.seq = 1;
+    message.header.utime = 1700000000000000;
+    message.header.frame_name = "cam";
+    message.width = image.cols;
+    message.height = image.rows;
+    message.row_stride = static_cast<int32_t>(image.cols * image.elemSize());
+    message.bigendian = false;
+    message.pixel_format = format;
+    message.channel_type = channel;
+    message.compression_method = zlib ? drake::lcmt_image::COMPRESSION_METHOD_ZLIB
+                                      : drake::lcmt_image::COMPRESSION_METHOD_NOT_COMPRESSED;
+    const cv::Mat packed = image.clone();
+    message.data = zlib ? ZlibBytes(image)
+                        : std::vector<uint8_t>(packed.datastart, packed.dataend);
+    message.size = static_cast<int32_t>(message.data.size());
+    return message;
+  };
+  using I = drake::lcmt_image;
+  for (bool zlib : {true, false}) {
+    drake::lcmt_image_array array;
+    array.header.seq = 1;
+    array.header.utime = 1700000000000000;
+    array.header.frame_name = "";
+    array.images = {drake_image(rgb, I::PIXEL_FORMAT_RGB, I::CHANNEL_TYPE_UINT8, zlib),
+                    drake_image(depth_m, I::PIXEL_FORMAT_DEPTH, I::CHANNEL_TYPE_FLOAT32, zlib),
+                    drake_image(labels, I::PIXEL_FORMAT_LABEL, I::CHANNEL_TYPE_INT16, zlib)};
+    array.num_images = 3;
+    const std::string seed = TypedSeed(0, array);
+    corpus.Add(zlib ? "drake_zlib" : "drake_raw", seed);
+    if (zlib) {
+      corpus.Add("near_drake_truncated", seed.substr(0, seed.size() - 9));
+      array.images[1].data[12] ^= 0x5A;
+      corpus.Add("near_drake_corrupted_zlib", TypedSeed(0, array));
+    }
+  }
+  auto bot_image = [](const cv::Mat& image, int32_t format, std::vector<uint8_t> data) {
+    bot_core::image_t message;
+    message.utime = 1700000000000000;
+    message.width = image.cols;
+    message.height = image.rows;
+    message.row_stride = static_cast<int32_t>(image.cols * image.elemSize());
+    message.pixelformat = format;
+    message.data = std::move(data);
+    message.size = static_cast<int32_t>(message.data.size());
+    message.nmetadata = 0;
+    return message;
+  };
+  cv::Mat depth_mm, mask;
+  depth_m.convertTo(depth_mm, CV_16U, 1000.0);
+  labels.convertTo(mask, CV_8U);
+  std::vector<uint8_t> jpeg;
+  cv::imencode(".jpg", rgb, jpeg);
+  for (bool mjpeg : {true, false}) {
+    bot_core::images_t images;
+    images.utime = 1700000000000000;
+    const cv::Mat packed = rgb.clone();
+    images.images = {
+        mjpeg ? bot_image(rgb, bot_core::image_t::PIXEL_FORMAT_MJPEG, jpeg)
+              : bot_image(rgb, bot_core::image_t::PIXEL_FORMAT_RGB,
+                          std::vector<uint8_t>(packed.datastart, packed.dataend)),
+        bot_image(depth_mm, bot_core::image_t::PIXEL_FORMAT_INVALID, ZlibBytes(depth_mm)),
+        bot_image(mask, bot_core::image_t::PIXEL_FORMAT_GRAY, ZlibBytes(mask))};
+    images.image_types = {int16_t{bot_core::images_t::LEFT},
+                          int16_t{bot_core::images_t::DEPTH_MM_ZIPPED},
+                          int16_t{bot_core::images_t::MASK_ZIPPED}};
+    images.n_images = 3;
+    corpus.Add(mjpeg ? "bot_core_mjpeg" : "bot_core_raw", TypedSeed(1, images));
+    if (!mjpeg) {
+      images.images.pop_back();
+      images.image_types.pop_back();
+      images.n_images = 2;
+      corpus.Add("near_bot_core_no_mask", TypedSeed(1, images));
+    }
+  }
+  corpus.Report();
+}
+
 }  // namespace
 }  // namespace g6d
 
@@ -596,6 +710,7 @@ int main(int argc, char** argv) {
                 : std::filesystem::path(G6D_SOURCE_DIR) / "tests" / "fuzz";
   try {
     g6d::MakeFrameSeeds(fuzz_dir);
+    g6d::MakeForeignSeeds(fuzz_dir);
     g6d::MakeImageSeeds(fuzz_dir);
     g6d::MakeCacheSeeds(fuzz_dir);
     g6d::MakeBopJsonSeeds(fuzz_dir);

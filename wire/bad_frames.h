@@ -2,7 +2,8 @@
 /// @file bad_frames.h
 /// Every kind of bad input g6d-service must answer with an error instead of a pose (or a
 /// crash), built from one good g6d_rgbd_frame_t, with the answer each must get. Shared by
-/// the service test (tests/service_test.cc) and the soak benchmark (bench/soak_main.cc).
+/// the service test (tests/service_test.cc) and the soak benchmark (bench/soak_main.cc),
+/// so it lives in the wire layer, not in tests/.
 ///
 /// Two families:
 ///  - frame errors: the message does not decode or validate; the LCM thread answers it at
@@ -22,9 +23,9 @@
 #include "g6d/pose_array_t.hpp"
 #include "g6d/pose_estimate_t.hpp"
 #include "g6d/rgbd_frame_t.hpp"
-#include "service/frame_codec.h"
+#include "wire/frame_codec.h"
 
-namespace g6d::test {
+namespace g6d::synthetic {
 
 /// One kind of bad message and what its answer must say.
 struct BadCase {
@@ -204,4 +205,4 @@ inline std::vector<BadCase> MakeBadCases(const rgbd_frame_t& good,
   return cases;
 }
 
-}  // namespace g6d::test
+}  // namespace g6d::synthetic

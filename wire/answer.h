@@ -11,7 +11,7 @@
 #include "g6d/pose_array_t.hpp"
 #include "g6d/pose_estimate_t.hpp"
 #include "g6d/rgbd_frame_t.hpp"
-#include "service/frame_codec.h"
+#include "wire/frame_codec.h"
 #include "solver/pipeline.h"
 
 namespace g6d {

@@ -1,4 +1,4 @@
-#include "service/answer.h"
+#include "wire/answer.h"
 
 #include <Eigen/Geometry>
 
