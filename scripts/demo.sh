@@ -19,7 +19,7 @@
 #   OUT=DIR            outputs (default out/demo, or out/demo/<dataset name> with DATASET)
 #   BUILD_DIR=build    build folder;  G6D_SKIP_APT=1: no apt-get;  G6D_SKIP_BUILD=1: no setup
 #   FRAMES=12 SEED=1   the sample's length and seed
-#   K=                 hypotheses N_H of the service (default: the service's own, 4)
+#   K=                 hypotheses N_H of the service (default: the service's own, 18)
 #   WORKERS=2          solver threads of the service (and template build threads)
 #   EVAL_ARGS="..."    extra g6d-eval arguments, e.g. "--adds-ids 21" (YCB-V's foam brick)
 # Exit status 0 only when every step ran and every image was answered.

@@ -49,6 +49,14 @@ for spec in g6d:png drake:png bot_core:raw bot_core:jpeg; do
   wait "${pid}" || true
 done
 
+# ADD(-S) and AR of each CSV (g6d-eval); BOP's YCB-V evaluation scores the master chef can
+# and the foam brick with ADD-S although models_info.json lists no symmetry for them.
+adds_ids="$(python3 -c 'import json, sys; print(",".join(k for k, e in json.load(open(sys.argv[1])).items() if e.get("name") in ("002_master_chef_can", "061_foam_brick")))' "${DATASET}/models/models_info.json")"
+for name in g6d_png drake_png bot_core_raw bot_core_jpeg; do
+  "${B}/tools/g6d-eval" --dataset "${DATASET}" --results "${OUT}/${name}.csv" ${adds_ids:+--adds-ids "${adds_ids}"} \
+    | awk -F'|' -v name="${name}" '$2 ~ /^ *all *$/ { gsub(/ /, "", $5); gsub(/ /, "", $9); print name "\t" $5 "\t" $9 }'
+done > "${OUT}/metrics.tsv"
+
 python3 - "${OUT}" <<'PY'
 import csv, math, sys
 def load(path):
@@ -58,8 +66,11 @@ def load(path):
             [float(x) for x in r["R"].split()], [float(x) for x in r["t"].split()], r["R"], r["t"])
     return rows
 native = load(f"{sys.argv[1]}/g6d_png.csv")
-print("| input | rows | bit-identical to g6d | max / median translation diff (mm) | max rotation diff (deg) |")
-print("|---|---|---|---|---|")
+metrics = {row[0]: row[1:] for row in csv.reader(open(f"{sys.argv[1]}/metrics.tsv"), delimiter="\t")}
+print("| input | rows | bit-identical to g6d | max / median translation diff (mm) | max rotation diff (deg) | ADD(-S) | AR |")
+print("|---|---|---|---|---|---|---|")
+add, ar = metrics.get("g6d_png", ["-", "-"])
+print(f"| g6d_png | {len(native)} | (reference) | | | {add} | {ar} |")
 for name in ["drake_png", "bot_core_raw", "bot_core_jpeg"]:
     other = load(f"{sys.argv[1]}/{name}.csv")
     same, dt, dr = 0, [], []
@@ -72,5 +83,6 @@ for name in ["drake_png", "bot_core_raw", "bot_core_jpeg"]:
         trace = sum(r0[i] * r1[i] for i in range(9))
         dr.append(math.degrees(math.acos(max(-1.0, min(1.0, (trace - 1) / 2)))))
     dt.sort()
-    print(f"| {name} | {len(other)}/{len(native)} | {same} | {max(dt):.2f} / {dt[len(dt) // 2]:.2f} | {max(dr):.1f} |")
+    add, ar = metrics.get(name, ["-", "-"])
+    print(f"| {name} | {len(other)}/{len(native)} | {same} | {max(dt):.2f} / {dt[len(dt) // 2]:.2f} | {max(dr):.1f} | {add} | {ar} |")
 PY
