@@ -1,6 +1,5 @@
 #include "foreign_log.h"
 
-#include <zlib.h>
 
 #include <cmath>
 #include <cstdio>
@@ -16,62 +15,17 @@
 #include "core/error.h"
 #include "drake/lcmt_image_array.hpp"
 #include "frame_log.h"
+#include "wire/foreign_images.h"
 #include "wire/frame_codec.h"
 
 namespace g6d {
 namespace {
-
-std::vector<uint8_t> Bytes(const cv::Mat& image) {
-  const cv::Mat packed = image.isContinuous() ? image : image.clone();
-  return std::vector<uint8_t>(packed.datastart, packed.dataend);
-}
-
-std::vector<uint8_t> Zlib(const std::vector<uint8_t>& raw) {
-  uLongf size = compressBound(static_cast<uLong>(raw.size()));
-  std::vector<uint8_t> out(size);
-  if (compress2(out.data(), &size, raw.data(), static_cast<uLong>(raw.size()), 6) != Z_OK)
-    G6D_THROW("zlib compression failed");
-  out.resize(size);
-  return out;
-}
 
 template <typename Message>
 std::vector<uint8_t> Encode(const Message& message) {
   std::vector<uint8_t> bytes(static_cast<size_t>(message.getEncodedSize()));
   G6D_CHECK(message.encode(bytes.data(), 0, static_cast<int>(bytes.size())) >= 0);
   return bytes;
-}
-
-drake::lcmt_image DrakeImage(const cv::Mat& image, int8_t pixel_format, int8_t channel_type,
-                             const rgbd_frame_t& frame) {
-  drake::lcmt_image message;
-  message.header.seq = static_cast<int32_t>(frame.seq);
-  message.header.utime = frame.utime;
-  message.header.frame_name = frame.camera_id;
-  message.width = image.cols;
-  message.height = image.rows;
-  message.row_stride = static_cast<int32_t>(image.cols * image.elemSize());
-  message.bigendian = false;
-  message.pixel_format = pixel_format;
-  message.channel_type = channel_type;
-  message.compression_method = drake::lcmt_image::COMPRESSION_METHOD_ZLIB;
-  message.data = Zlib(Bytes(image));
-  message.size = static_cast<int32_t>(message.data.size());
-  return message;
-}
-
-bot_core::image_t BotImage(const cv::Mat& image, int32_t pixelformat, std::vector<uint8_t> data,
-                           int64_t utime) {
-  bot_core::image_t message;
-  message.utime = utime;
-  message.width = image.cols;
-  message.height = image.rows;
-  message.row_stride = static_cast<int32_t>(image.cols * image.elemSize());
-  message.pixelformat = pixelformat;
-  message.data = std::move(data);
-  message.size = static_cast<int32_t>(message.data.size());
-  message.nmetadata = 0;
-  return message;
 }
 
 bool SameCamera(const Camera& a, const Camera& b) {
@@ -146,10 +100,12 @@ ForeignLogReport ConvertFrameLog(const std::string& g6d_log, const std::string& 
       message.header.seq = static_cast<int32_t>(frame.seq);
       message.header.utime = frame.utime;
       message.header.frame_name = frame.camera_id;
-      message.images = {
-          DrakeImage(decoded.frame.rgb, I::PIXEL_FORMAT_RGB, I::CHANNEL_TYPE_UINT8, frame),
-          DrakeImage(decoded.frame.depth, I::PIXEL_FORMAT_DEPTH, I::CHANNEL_TYPE_FLOAT32, frame),
-          DrakeImage(labels16, I::PIXEL_FORMAT_LABEL, I::CHANNEL_TYPE_INT16, frame)};
+      auto image = [&](const cv::Mat& plane, int8_t format, int8_t channel) {
+        return MakeDrakeImage(plane, format, channel, true, message.header.seq, frame.utime, frame.camera_id);
+      };
+      message.images = {image(decoded.frame.rgb, I::PIXEL_FORMAT_RGB, I::CHANNEL_TYPE_UINT8),
+                        image(decoded.frame.depth, I::PIXEL_FORMAT_DEPTH, I::CHANNEL_TYPE_FLOAT32),
+                        image(labels16, I::PIXEL_FORMAT_LABEL, I::CHANNEL_TYPE_INT16)};
       message.num_images = 3;
       bytes = Encode(message);
     } else {
@@ -162,19 +118,19 @@ ForeignLogReport ConvertFrameLog(const std::string& g6d_log, const std::string& 
         std::vector<uint8_t> jpeg;
         cv::imencode(".jpg", bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, options.jpeg_quality});
         message.images.push_back(
-            BotImage(decoded.frame.rgb, I::PIXEL_FORMAT_MJPEG, jpeg, frame.utime));
+            MakeBotCoreImage(decoded.frame.rgb, I::PIXEL_FORMAT_MJPEG, jpeg, frame.utime));
       } else {
-        message.images.push_back(BotImage(decoded.frame.rgb, I::PIXEL_FORMAT_RGB,
-                                          Bytes(decoded.frame.rgb), frame.utime));
+        message.images.push_back(
+            MakeBotCoreImage(decoded.frame.rgb, I::PIXEL_FORMAT_RGB, PixelBytes(decoded.frame.rgb), frame.utime));
       }
       cv::Mat depth_mm;  // saturating, rounded to the nearest millimetre
       decoded.frame.depth.convertTo(depth_mm, CV_16U, 1000.0);
       message.images.push_back(
-          BotImage(depth_mm, I::PIXEL_FORMAT_INVALID, Zlib(Bytes(depth_mm)), frame.utime));
+          MakeBotCoreImage(depth_mm, I::PIXEL_FORMAT_INVALID, ZlibCompress(PixelBytes(depth_mm)), frame.utime));
       cv::Mat mask = labels;
       if (report.labels.size() <= 255) labels.convertTo(mask, CV_8U);
       message.images.push_back(
-          BotImage(mask, I::PIXEL_FORMAT_GRAY, Zlib(Bytes(mask)), frame.utime));
+          MakeBotCoreImage(mask, I::PIXEL_FORMAT_GRAY, ZlibCompress(PixelBytes(mask)), frame.utime));
       message.image_types = {int16_t{bot_core::images_t::LEFT},
                              int16_t{bot_core::images_t::DEPTH_MM_ZIPPED},
                              int16_t{bot_core::images_t::MASK_ZIPPED}};

@@ -8,7 +8,6 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <zlib.h>
 
 #include <cstring>
 #include <opencv2/imgcodecs.hpp>
@@ -20,6 +19,7 @@
 #include "bot_core/images_t.hpp"
 #include "core/error.h"
 #include "drake/lcmt_image_array.hpp"
+#include "wire/foreign_images.h"
 #include "wire/frame_codec.h"
 
 namespace g6d {
@@ -61,19 +61,6 @@ Planes MakePlanes() {
   return planes;
 }
 
-std::vector<uint8_t> Bytes(const cv::Mat& image) {
-  const cv::Mat packed = image.isContinuous() ? image : image.clone();
-  return std::vector<uint8_t>(packed.datastart, packed.dataend);
-}
-
-std::vector<uint8_t> Zlib(const std::vector<uint8_t>& raw) {
-  uLongf size = compressBound(static_cast<uLong>(raw.size()));
-  std::vector<uint8_t> out(size);
-  EXPECT_EQ(compress2(out.data(), &size, raw.data(), static_cast<uLong>(raw.size()), 6), Z_OK);
-  out.resize(size);
-  return out;
-}
-
 template <typename Message>
 std::vector<uint8_t> Encode(const Message& message) {
   std::vector<uint8_t> bytes(static_cast<size_t>(message.getEncodedSize()));
@@ -85,21 +72,7 @@ std::vector<uint8_t> Encode(const Message& message) {
 
 drake::lcmt_image DrakeImage(const cv::Mat& image, int8_t pixel_format, int8_t channel_type,
                              bool compress, const std::string& frame_name) {
-  drake::lcmt_image message;
-  message.header.seq = 0;
-  message.header.utime = 1234567;
-  message.header.frame_name = frame_name;
-  message.width = image.cols;
-  message.height = image.rows;
-  message.row_stride = static_cast<int32_t>(image.cols * image.elemSize());
-  message.bigendian = false;
-  message.pixel_format = pixel_format;
-  message.channel_type = channel_type;
-  message.data = compress ? Zlib(Bytes(image)) : Bytes(image);
-  message.compression_method = compress ? drake::lcmt_image::COMPRESSION_METHOD_ZLIB
-                                        : drake::lcmt_image::COMPRESSION_METHOD_NOT_COMPRESSED;
-  message.size = static_cast<int32_t>(message.data.size());
-  return message;
+  return MakeDrakeImage(image, pixel_format, channel_type, compress, 0, 1234567, frame_name);
 }
 
 drake::lcmt_image_array DrakeArray(const Planes& planes, bool compress) {
@@ -246,16 +219,7 @@ TEST(AdaptMessage, DrakeGarbageAndOtherTypesAreRefusedBeforeDecoding) {
 // ---- bot_core, as openni/realsense-to-LCM publishers fill images_t ---------------------------
 
 bot_core::image_t BotImage(const cv::Mat& image, int32_t pixelformat, std::vector<uint8_t> data) {
-  bot_core::image_t message;
-  message.utime = 7654321;
-  message.width = image.cols;
-  message.height = image.rows;
-  message.row_stride = static_cast<int32_t>(image.cols * image.elemSize());
-  message.pixelformat = pixelformat;
-  message.data = std::move(data);
-  message.size = static_cast<int32_t>(message.data.size());
-  message.nmetadata = 0;
-  return message;
+  return MakeBotCoreImage(image, pixelformat, std::move(data), 7654321);
 }
 
 bot_core::images_t BotImages(const Planes& planes, bool mjpeg, bool zip_depth) {
@@ -267,19 +231,19 @@ bot_core::images_t BotImages(const Planes& planes, bool mjpeg, bool zip_depth) {
   std::vector<uint8_t> jpeg;
   cv::imencode(".jpg", bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, 95});
   images.images.push_back(mjpeg ? BotImage(planes.rgb, I::PIXEL_FORMAT_MJPEG, jpeg)
-                                : BotImage(planes.rgb, I::PIXEL_FORMAT_RGB, Bytes(planes.rgb)));
+                                : BotImage(planes.rgb, I::PIXEL_FORMAT_RGB, PixelBytes(planes.rgb)));
   images.image_types.push_back(int16_t{bot_core::images_t::LEFT});
   cv::Mat depth_mm;
   planes.depth_m.convertTo(depth_mm, CV_16U, 1000.0);
   // Depth publishers mark zipped depth PIXEL_FORMAT_INVALID (-2) and raw depth LE_GRAY16.
   images.images.push_back(zip_depth
-                              ? BotImage(depth_mm, I::PIXEL_FORMAT_INVALID, Zlib(Bytes(depth_mm)))
-                              : BotImage(depth_mm, I::PIXEL_FORMAT_LE_GRAY16, Bytes(depth_mm)));
+                              ? BotImage(depth_mm, I::PIXEL_FORMAT_INVALID, ZlibCompress(PixelBytes(depth_mm)))
+                              : BotImage(depth_mm, I::PIXEL_FORMAT_LE_GRAY16, PixelBytes(depth_mm)));
   images.image_types.push_back(zip_depth ? int16_t{bot_core::images_t::DEPTH_MM_ZIPPED}
                                          : int16_t{bot_core::images_t::DEPTH_MM});
   cv::Mat mask;
   planes.labels.convertTo(mask, CV_8U);
-  images.images.push_back(BotImage(mask, I::PIXEL_FORMAT_GRAY, Zlib(Bytes(mask))));
+  images.images.push_back(BotImage(mask, I::PIXEL_FORMAT_GRAY, ZlibCompress(PixelBytes(mask))));
   images.image_types.push_back(int16_t{bot_core::images_t::MASK_ZIPPED});
   images.n_images = 3;
   return images;

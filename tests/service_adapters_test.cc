@@ -6,7 +6,6 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <zlib.h>
 
 #include <chrono>
 #include <memory>
@@ -21,6 +20,7 @@
 #include "eval/metrics.h"
 #include "service/service.h"
 #include "service_test_util.h"
+#include "wire/foreign_images.h"
 #include "wire/input_adapters.h"
 
 namespace g6d {
@@ -29,33 +29,8 @@ namespace {
 using std::chrono::seconds;
 using testing::HasSubstr;
 
-std::vector<uint8_t> Bytes(const cv::Mat& image) {
-  const cv::Mat packed = image.isContinuous() ? image : image.clone();
-  return std::vector<uint8_t>(packed.datastart, packed.dataend);
-}
-
-std::vector<uint8_t> Zlib(const std::vector<uint8_t>& raw) {
-  uLongf size = compressBound(static_cast<uLong>(raw.size()));
-  std::vector<uint8_t> out(size);
-  EXPECT_EQ(compress2(out.data(), &size, raw.data(), static_cast<uLong>(raw.size()), 1), Z_OK);
-  out.resize(size);
-  return out;
-}
-
 drake::lcmt_image DrakeImage(const cv::Mat& image, int8_t pixel_format, int8_t channel_type) {
-  drake::lcmt_image message;
-  message.header.utime = 5000;
-  message.header.frame_name = "drake_camera";
-  message.width = image.cols;
-  message.height = image.rows;
-  message.row_stride = static_cast<int32_t>(image.cols * image.elemSize());
-  message.bigendian = false;
-  message.pixel_format = pixel_format;
-  message.channel_type = channel_type;
-  message.compression_method = drake::lcmt_image::COMPRESSION_METHOD_ZLIB;
-  message.data = Zlib(Bytes(image));
-  message.size = static_cast<int32_t>(message.data.size());
-  return message;
+  return MakeDrakeImage(image, pixel_format, channel_type, true, 0, 5000, "drake_camera");
 }
 
 // The view as Drake's ImageToLcmImageArrayT publishes it: RGBA8, float depth, int16 labels.
@@ -85,16 +60,7 @@ rgbd_frame_t NativeFrame(const test::SyntheticView& view, int32_t seq) {
 }
 
 bot_core::image_t BotImage(const cv::Mat& image, int32_t pixelformat, std::vector<uint8_t> data) {
-  bot_core::image_t message;
-  message.utime = 9000;
-  message.width = image.cols;
-  message.height = image.rows;
-  message.row_stride = static_cast<int32_t>(image.cols * image.elemSize());
-  message.pixelformat = pixelformat;
-  message.data = std::move(data);
-  message.size = static_cast<int32_t>(message.data.size());
-  message.nmetadata = 0;
-  return message;
+  return MakeBotCoreImage(image, pixelformat, std::move(data), 9000);
 }
 
 bot_core::images_t BotCoreMessage(const test::SyntheticView& view) {
@@ -108,8 +74,8 @@ bot_core::images_t BotCoreMessage(const test::SyntheticView& view) {
   message.utime = 9000;
   message.images = {
       BotImage(view.rgb, bot_core::image_t::PIXEL_FORMAT_MJPEG, jpeg),
-      BotImage(depth_mm, bot_core::image_t::PIXEL_FORMAT_INVALID, Zlib(Bytes(depth_mm))),
-      BotImage(mask, bot_core::image_t::PIXEL_FORMAT_GRAY, Zlib(Bytes(mask)))};
+      BotImage(depth_mm, bot_core::image_t::PIXEL_FORMAT_INVALID, ZlibCompress(PixelBytes(depth_mm))),
+      BotImage(mask, bot_core::image_t::PIXEL_FORMAT_GRAY, ZlibCompress(PixelBytes(mask)))};
   message.image_types = {int16_t{bot_core::images_t::LEFT},
                          int16_t{bot_core::images_t::DEPTH_MM_ZIPPED},
                          int16_t{bot_core::images_t::MASK_ZIPPED}};

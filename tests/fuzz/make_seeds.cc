@@ -8,7 +8,6 @@
 // FUZZ_DIR defaults to the source tree's tests/fuzz. Each corpus/<name>/ folder is
 // replaced as a whole; regressions/ is never touched.
 #include <unistd.h>
-#include <zlib.h>
 #include <zstd.h>
 
 #include <array>
@@ -35,6 +34,7 @@
 #include "drake/lcmt_image_array.hpp"
 #include "eval/bop_csv.h"
 #include "g6d/rgbd_frame_t.hpp"
+#include "wire/foreign_images.h"
 #include "wire/frame_codec.h"
 #include "templates/cache.h"
 #include "test_meshes.h"
@@ -589,17 +589,6 @@ void MakeBopCsvSeeds(const fs::path& fuzz_dir) {
 // ---- foreign_message ------------------------------------------------------------------
 // A type byte (0 Drake, 1 bot_core), then the message, 64 x 48 as the harness's camera.
 
-std::vector<uint8_t> ZlibBytes(const cv::Mat& image) {
-  const cv::Mat packed = image.isContinuous() ? image : image.clone();
-  uLongf size = compressBound(static_cast<uLong>(packed.total() * packed.elemSize()));
-  std::vector<uint8_t> out(size);
-  if (compress2(out.data(), &size, packed.data, static_cast<uLong>(packed.total() * packed.elemSize()),
-                6) != Z_OK)
-    G6D_THROW("zlib compression failed");
-  out.resize(size);
-  return out;
-}
-
 template <typename Message>
 std::string TypedSeed(uint8_t type, const Message& message) {
   std::string bytes(static_cast<size_t>(message.getEncodedSize()) + 1, '\0');
@@ -618,23 +607,7 @@ void MakeForeignSeeds(const fs::path& fuzz_dir) {
   labels(cv::Rect(40, 20, 9, 9)) = 2;
   labels(cv::Rect(0, 40, 4, 4)) = 7;  // in no label map
   auto drake_image = [](const cv::Mat& image, int8_t format, int8_t channel, bool zlib) {
-    drake::lcmt_image message;
-    message.header.seq = 1;
-    message.header.utime = 1700000000000000;
-    message.header.frame_name = "cam";
-    message.width = image.cols;
-    message.height = image.rows;
-    message.row_stride = static_cast<int32_t>(image.cols * image.elemSize());
-    message.bigendian = false;
-    message.pixel_format = format;
-    message.channel_type = channel;
-    message.compression_method = zlib ? drake::lcmt_image::COMPRESSION_METHOD_ZLIB
-                                      : drake::lcmt_image::COMPRESSION_METHOD_NOT_COMPRESSED;
-    const cv::Mat packed = image.clone();
-    message.data = zlib ? ZlibBytes(image)
-                        : std::vector<uint8_t>(packed.datastart, packed.dataend);
-    message.size = static_cast<int32_t>(message.data.size());
-    return message;
+    return MakeDrakeImage(image, format, channel, zlib, 1, 1700000000000000, "cam");
   };
   using I = drake::lcmt_image;
   for (bool zlib : {true, false}) {
@@ -655,16 +628,7 @@ void MakeForeignSeeds(const fs::path& fuzz_dir) {
     }
   }
   auto bot_image = [](const cv::Mat& image, int32_t format, std::vector<uint8_t> data) {
-    bot_core::image_t message;
-    message.utime = 1700000000000000;
-    message.width = image.cols;
-    message.height = image.rows;
-    message.row_stride = static_cast<int32_t>(image.cols * image.elemSize());
-    message.pixelformat = format;
-    message.data = std::move(data);
-    message.size = static_cast<int32_t>(message.data.size());
-    message.nmetadata = 0;
-    return message;
+    return MakeBotCoreImage(image, format, std::move(data), 1700000000000000);
   };
   cv::Mat depth_mm, mask;
   depth_m.convertTo(depth_mm, CV_16U, 1000.0);
@@ -674,13 +638,12 @@ void MakeForeignSeeds(const fs::path& fuzz_dir) {
   for (bool mjpeg : {true, false}) {
     bot_core::images_t images;
     images.utime = 1700000000000000;
-    const cv::Mat packed = rgb.clone();
     images.images = {
         mjpeg ? bot_image(rgb, bot_core::image_t::PIXEL_FORMAT_MJPEG, jpeg)
               : bot_image(rgb, bot_core::image_t::PIXEL_FORMAT_RGB,
-                          std::vector<uint8_t>(packed.datastart, packed.dataend)),
-        bot_image(depth_mm, bot_core::image_t::PIXEL_FORMAT_INVALID, ZlibBytes(depth_mm)),
-        bot_image(mask, bot_core::image_t::PIXEL_FORMAT_GRAY, ZlibBytes(mask))};
+                          PixelBytes(rgb)),
+        bot_image(depth_mm, bot_core::image_t::PIXEL_FORMAT_INVALID, ZlibCompress(PixelBytes(depth_mm))),
+        bot_image(mask, bot_core::image_t::PIXEL_FORMAT_GRAY, ZlibCompress(PixelBytes(mask)))};
     images.image_types = {int16_t{bot_core::images_t::LEFT},
                           int16_t{bot_core::images_t::DEPTH_MM_ZIPPED},
                           int16_t{bot_core::images_t::MASK_ZIPPED}};
