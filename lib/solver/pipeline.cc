@@ -190,6 +190,24 @@ std::vector<Eigen::Vector3d> VisibleModelPoints(const Mesh& mesh, const Evaluati
   return points;
 }
 
+// One trimmed ICP run of at most `max_iterations` from *cam_from_object, on a source of
+// at most `max_points` visible model points rendered there (with their normals for
+// point-to-plane).
+IcpReport RunIcpFrom(const SolverOptions& options, const Mesh& mesh, const EvaluationGrid& grid,
+                     const ScoreOptions& score_options, const PointCloudIndex& observed, double diameter_m,
+                     int max_points, int max_iterations, RasterImage* scratch, Eigen::Isometry3d* cam_from_object) {
+  std::vector<Eigen::Vector3d> normals;
+  const std::vector<Eigen::Vector3d> source =
+      VisibleModelPoints(mesh, grid, *cam_from_object, score_options, max_points, options.icp_source_in_mask, scratch,
+                         options.icp.point_to_plane ? &normals : nullptr);
+  IcpOptions icp = options.icp;
+  icp.max_iterations = max_iterations;
+  IcpReport report;
+  RefineByTrimmedIcp(icp, source, observed, diameter_m, cam_from_object, &report,
+                     options.icp.point_to_plane ? &normals : nullptr);
+  return report;
+}
+
 // The symmetries of the shape: the mesh's geometric ones and those the user gave (BOP
 // models_info.json) as discrete ones.
 MeshSymmetries ShapeSymmetries(const TemplateBank& bank) {
@@ -495,16 +513,9 @@ std::vector<PoseScore> RefineHypothesesByIcp(const SolveContext& c, std::vector<
   std::vector<int> iterations(n, 0), converged(n, 0), unfinished(n, 0), at_max(n, 0);
   // One ICP run of at most `max_iterations` on a source of at most `max_points`.
   auto run_icp = [&](size_t k, int max_points, int max_iterations, RasterImage* scratch) {
-    Eigen::Isometry3d& pose = (*kept)[k].cam_from_object;
-    std::vector<Eigen::Vector3d> normals;
-    const std::vector<Eigen::Vector3d> source =
-        VisibleModelPoints(c.bank.online_mesh, c.observation.refine_grid, pose, c.online_score, max_points,
-                           options.icp_source_in_mask, scratch, options.icp.point_to_plane ? &normals : nullptr);
-    IcpOptions icp = options.icp;
-    icp.max_iterations = max_iterations;
-    IcpReport report;
-    RefineByTrimmedIcp(icp, source, *c.observation.observed, c.bank.diameter_m, &pose, &report,
-                       options.icp.point_to_plane ? &normals : nullptr);
+    const IcpReport report = RunIcpFrom(options, c.bank.online_mesh, c.observation.refine_grid, c.online_score,
+                                        *c.observation.observed, c.bank.diameter_m, max_points, max_iterations,
+                                        scratch, &(*kept)[k].cam_from_object);
     iterations[k] += report.iterations;
     converged[k] = report.success;
     unfinished[k] = report.success && report.iterations >= max_iterations;
@@ -694,15 +705,9 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
           PostRefineHypotheses(result.cam_from_object, bank, frame.camera, observation.box, observation.z_m);
       executor->ParallelFor(static_cast<int>(extra.size()), [&](int k) {
         RasterImage scratch;
-        Eigen::Isometry3d& pose = extra[static_cast<size_t>(k)];
-        std::vector<Eigen::Vector3d> normals;
-        const std::vector<Eigen::Vector3d> source =
-            VisibleModelPoints(bank.online_mesh, observation.refine_grid, pose, context.online_score,
-                               options.max_source_points, options.icp_source_in_mask, &scratch,
-                               options.icp.point_to_plane ? &normals : nullptr);
-        IcpReport icp_report;
-        RefineByTrimmedIcp(options.icp, source, *observation.observed, bank.diameter_m, &pose, &icp_report,
-                           options.icp.point_to_plane ? &normals : nullptr);
+        RunIcpFrom(options, bank.online_mesh, observation.refine_grid, context.online_score, *observation.observed,
+                   bank.diameter_m, options.max_source_points, options.icp.max_iterations, &scratch,
+                   &extra[static_cast<size_t>(k)]);
       });
       Eigen::Isometry3d best;
       MhpoReport report;
@@ -746,6 +751,104 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
   } catch (const std::exception& e) {
     // Library code reports bad data through the result; an exception here is a bug or
     // an unexpected input that a lower layer refused. It must not escape to the caller.
+    return fail(Termination::kBadInput, std::string("internal error: ") + e.what());
+  }
+}
+
+std::string TrackSolveOptions::Check() const {
+  std::ostringstream out;
+  if (icp_iterations < 0) out << "TrackSolveOptions.icp_iterations must be >= 0 (got " << icp_iterations << ")";
+  else if (max_source_points < 10) out << "TrackSolveOptions.max_source_points must be >= 10 (got " << max_source_points << ")";
+  else if (max_observed_points < 10) out << "TrackSolveOptions.max_observed_points must be >= 10 (got " << max_observed_points << ")";
+  else if (mhpo_rounds < 0) out << "TrackSolveOptions.mhpo_rounds must be >= 0 (got " << mhpo_rounds << ")";
+  return out.str();
+}
+
+PoseResult TrackPose(const Frame& frame, const Instance& instance, const TemplateBank& bank,
+                     const SolverOptions& options, const TrackSolveOptions& track_options,
+                     const std::vector<Eigen::Isometry3d>& starts, Executor* executor) {
+  PoseResult result;
+  StageReport& stages = result.stages;
+  const Stopwatch total;
+  auto fail = [&](Termination termination, const std::string& message) {
+    result.success = false;
+    result.termination = termination;
+    result.message = message;
+    stages.total_ms = total.ElapsedMs();
+    return result;
+  };
+  try {
+    std::string bad = ValidateInputs(frame, instance, bank, options);
+    if (bad.empty()) bad = track_options.Check();
+    if (bad.empty() && starts.empty()) bad = "no start pose to track from";
+    if (!bad.empty()) return fail(Termination::kBadInput, bad);
+
+    Stopwatch watch;
+    SolverOptions prepare_options = options;
+    prepare_options.max_observed_points = track_options.max_observed_points;
+    Observation observation;
+    const std::string bad_observation = PrepareObservation(frame, instance, prepare_options, &observation);
+    if (!bad_observation.empty()) return fail(Termination::kBadInput, bad_observation);
+    result.truncated = observation.truncated;
+    ScoreOptions online_score = options.score;
+    online_score.cull_backfaces = options.cull_backfaces && bank.online_mesh_closed;
+    stages.prepare_ms = watch.ElapsedMs();
+
+    // ICP from every start, then S.
+    watch.Restart();
+    std::vector<Eigen::Isometry3d> poses = starts;
+    std::vector<PoseScore> scores(poses.size());
+    std::vector<IcpReport> reports(poses.size());
+    executor->ParallelFor(static_cast<int>(poses.size()), [&](int k) {
+      RasterImage scratch;
+      Eigen::Isometry3d& pose = poses[static_cast<size_t>(k)];
+      if (options.run_icp && track_options.icp_iterations > 0) {
+        reports[static_cast<size_t>(k)] =
+            RunIcpFrom(options, bank.online_mesh, observation.refine_grid, online_score, *observation.observed,
+                       bank.diameter_m, track_options.max_source_points, track_options.icp_iterations, &scratch, &pose);
+      }
+      scores[static_cast<size_t>(k)] =
+          ScorePose(observation.refine_grid, bank.online_mesh, pose, observation.z_m, online_score, &scratch);
+    });
+    size_t best = 0;
+    for (size_t k = 0; k < poses.size(); ++k) {
+      stages.icp_iterations += reports[k].iterations;
+      stages.icp_converged += reports[k].success;
+      if (scores[k].s < scores[best].s) best = k;
+    }
+    stages.kept_hypotheses = static_cast<int>(poses.size());
+    stages.best_s_after_icp = scores[best].s;
+    stages.icp_pose = poses[best];
+    result.cam_from_object = poses[best];
+    result.details = scores[best];
+    stages.answer_hypothesis = static_cast<int>(best);
+    stages.icp_ms = watch.ElapsedMs();
+
+    // MHPO from the ICP results: the best state over starts and rounds.
+    watch.Restart();
+    result.termination = Termination::kConverged;
+    if (options.run_mhpo && track_options.mhpo_rounds > 0) {
+      MhpoOptions mhpo = options.mhpo;
+      mhpo.max_rounds = track_options.mhpo_rounds;
+      const MhpoTarget target = MakeMhpoTarget(observation.refine_grid, observation.z_m);
+      Eigen::Isometry3d refined;
+      RefineByMhpo(mhpo, online_score, target, bank.online_mesh, poses, executor, &refined, &stages.mhpo, nullptr,
+                   &scores);
+      if (stages.mhpo.success && stages.mhpo.best_score.s <= result.details.s) {
+        result.cam_from_object = refined;
+        result.details = stages.mhpo.best_score;
+        stages.answer_hypothesis = stages.mhpo.best_hypothesis;
+      }
+      if (stages.mhpo.early_stopped) result.termination = Termination::kEarlyStopped;
+    }
+    stages.mhpo_ms = watch.ElapsedMs();
+    result.score = result.details.s;
+    result.confidence = ConfidenceFromScore(options, result.score, false);
+    result.success = true;
+    result.message = "ok";
+    stages.total_ms = total.ElapsedMs();
+    return result;
+  } catch (const std::exception& e) {
     return fail(Termination::kBadInput, std::string("internal error: ") + e.what());
   }
 }

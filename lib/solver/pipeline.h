@@ -251,4 +251,24 @@ PoseScore ScoreInstancePose(const Frame& frame, const Instance& instance, const 
 PoseResult EstimatePose(const Frame& frame, const Instance& instance, const TemplateBank& bank,
                         const SolverOptions& options, Executor* executor);
 
+/// Options of a solve from known poses.
+struct TrackSolveOptions {
+  int icp_iterations = 10;        ///< ICP iterations per start (point-to-plane after the first 3)
+  int max_source_points = 300;    ///< rendered ICP source points at most
+  int max_observed_points = 1200; ///< observed points (inside the mask) at most
+  int mhpo_rounds = 2;            ///< MHPO re-rasterizations per start
+
+  std::string Check() const;
+};
+
+/// Solves one instance from `starts` (poses near the answer, e.g. the last answer and a
+/// constant-velocity prediction): trimmed ICP on depth, MHPO, the best state by S. The
+/// observation is prepared as EstimatePose prepares it, with `options`; the result has the
+/// same fields (T_A, S_A, details, confidence, truncated; no runner-up: only the starts'
+/// neighbourhood is searched). Never throws for bad data: bad input gives success = false,
+/// termination kBadInput. Starts fan out over `executor`.
+PoseResult TrackPose(const Frame& frame, const Instance& instance, const TemplateBank& bank,
+                     const SolverOptions& options, const TrackSolveOptions& track_options,
+                     const std::vector<Eigen::Isometry3d>& starts, Executor* executor);
+
 }  // namespace g6d

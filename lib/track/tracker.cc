@@ -1,0 +1,231 @@
+#include "track/tracker.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <tuple>
+
+#include <opencv2/imgproc.hpp>
+
+#include "core/error.h"
+#include "core/timer.h"
+#include "render/raster.h"
+
+namespace g6d {
+
+const char* AnswerModeName(AnswerMode mode) {
+  switch (mode) {
+    case AnswerMode::kDetected: return "detected";
+    case AnswerMode::kTracked: return "tracked";
+    case AnswerMode::kRedetected: return "redetected";
+  }
+  return "unknown";
+}
+
+std::string TrackerOptions::Check() const {
+  std::ostringstream out;
+  if (!(max_age_s > 0.0 && std::isfinite(max_age_s))) out << "TrackerOptions.max_age_s must be > 0 (got " << max_age_s << ")";
+  else if (!(min_overlap >= 0.0 && min_overlap <= 1.0)) out << "TrackerOptions.min_overlap must be in [0, 1] (got " << min_overlap << ")";
+  else if (!(loss_score > 0.0 && std::isfinite(loss_score))) out << "TrackerOptions.loss_score must be > 0 (got " << loss_score << ")";
+  else if (!(min_iou >= 0.0 && min_iou <= 1.0)) out << "TrackerOptions.min_iou must be in [0, 1] (got " << min_iou << ")";
+  else if (redetect_every < 0) out << "TrackerOptions.redetect_every must be >= 0 (got " << redetect_every << ")";
+  else if (max_periodic_per_frame < 1) out << "TrackerOptions.max_periodic_per_frame must be >= 1 (got " << max_periodic_per_frame << ")";
+  if (!out.str().empty()) return out.str();
+  return solve.Check();
+}
+
+Eigen::Isometry3d PredictPose(const Track& track, double time_s) {
+  if (!track.has_velocity) return track.cam_from_object;
+  const double dt = time_s - track.time_s;
+  Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
+  const Eigen::Vector3d rotation = track.angular_rad_s * dt;
+  if (rotation.norm() > 0.0) step.linear() = Eigen::AngleAxisd(rotation.norm(), rotation.normalized()).toRotationMatrix();
+  step.translation() = track.velocity_m_s * dt;
+  return step * track.cam_from_object;
+}
+
+namespace {
+
+// The longer side of the images on which masks and predicted silhouettes are compared.
+constexpr int kOverlapSidePx = 160;
+
+// Poses closer than these are one start (the prediction adds nothing to the last pose).
+constexpr double kSameStartM = 0.001;
+constexpr double kSameStartRad = 0.2 * M_PI / 180.0;
+
+// |a ∩ b| / min(|a|, |b|) of two 0/255 masks; 0 when either is empty.
+double Overlap(const cv::Mat& a, const cv::Mat& b) {
+  const int area_a = cv::countNonZero(a), area_b = cv::countNonZero(b);
+  if (area_a == 0 || area_b == 0) return 0.0;
+  cv::Mat both;
+  cv::bitwise_and(a, b, both);
+  return static_cast<double>(cv::countNonZero(both)) / std::min(area_a, area_b);
+}
+
+}  // namespace
+
+TrackedAnswer SolveWithPlan(const Frame& frame, const Instance& instance, const TemplateBank& bank,
+                            const SolverOptions& solver_options, const TrackerOptions& options,
+                            const TrackPlan& plan, Executor* executor) {
+  TrackedAnswer answer;
+  answer.track_id = plan.track_id;
+  Stopwatch watch;
+  if (!options.enabled || plan.track_id < 0) {
+    answer.result = EstimatePose(frame, instance, bank, solver_options, executor);
+    answer.detect_ms = watch.ElapsedMs();
+    answer.mode = AnswerMode::kDetected;
+    return answer;
+  }
+  PoseResult tracked = TrackPose(frame, instance, bank, solver_options, options.solve, plan.starts, executor);
+  answer.track_ms = watch.ElapsedMs();
+  answer.tracked_score = tracked.details;
+  answer.lost = !tracked.success || tracked.score > options.loss_score || tracked.details.iou < options.min_iou;
+  if (!answer.lost && !plan.redetect) {
+    answer.result = std::move(tracked);
+    answer.mode = AnswerMode::kTracked;
+    answer.from_track = true;
+    return answer;
+  }
+  // Lost, or a periodic check: the full solver, and the lower S of the two.
+  answer.periodic = plan.redetect && !answer.lost;
+  answer.mode = AnswerMode::kRedetected;
+  watch.Restart();
+  PoseResult detected = EstimatePose(frame, instance, bank, solver_options, executor);
+  answer.detect_ms = watch.ElapsedMs();
+  answer.from_track = tracked.success && (!detected.success || tracked.score < detected.score);
+  answer.result = answer.from_track ? std::move(tracked) : std::move(detected);
+  return answer;
+}
+
+Tracker::Tracker(const TrackerOptions& options) : options_(options) {
+  const std::string bad = options.Check();
+  if (!bad.empty()) G6D_THROW("bad tracker options: " << bad);
+}
+
+std::vector<TrackPlan> Tracker::Plan(double time_s, const std::vector<Instance>& instances, const Camera& camera,
+                                     const BankLookup& banks) {
+  std::vector<TrackPlan> plans(instances.size());
+  for (size_t i = 0; i < instances.size(); ++i) plans[i].object_id = instances[i].object_id;
+  if (!options_.enabled) return plans;
+  if (!tracks_.empty()) {
+    double latest = tracks_.front().time_s;
+    for (const Track& track : tracks_) latest = std::max(latest, track.time_s);
+    if (time_s < latest) tracks_.clear();  // time went backwards: a new log or a replay
+  }
+  tracks_.erase(std::remove_if(tracks_.begin(), tracks_.end(),
+                               [&](const Track& track) { return time_s - track.time_s > options_.max_age_s; }),
+                tracks_.end());
+  if (tracks_.empty() || instances.empty()) return plans;
+
+  // Masks and predicted silhouettes on a small image.
+  const double scale = std::min(1.0, static_cast<double>(kOverlapSidePx) / std::max(camera.width, camera.height));
+  const Camera small = camera.Scaled(scale);
+  const cv::Size small_size(small.width, small.height);
+  std::vector<cv::Mat> masks(instances.size());
+  for (size_t i = 0; i < instances.size(); ++i) {
+    if (instances[i].mask.empty() || banks(instances[i].object_id) == nullptr) continue;
+    cv::Mat resized;
+    cv::resize(instances[i].mask, resized, small_size, 0, 0, cv::INTER_AREA);
+    masks[i] = resized > 0;
+  }
+  RasterOptions raster_options;
+  raster_options.want_face_id = false;
+  RasterImage raster;
+  std::vector<std::tuple<double, size_t, size_t>> pairs;  // overlap, instance, track
+  for (size_t t = 0; t < tracks_.size(); ++t) {
+    const Track& track = tracks_[t];
+    const TemplateBank* bank = banks(track.object_id);
+    if (bank == nullptr) continue;
+    const Mesh& mesh = bank->selection_mesh.faces.empty() ? bank->online_mesh : bank->selection_mesh;
+    Rasterize(mesh, small, PredictPose(track, time_s), raster_options, &raster);
+    const cv::Mat silhouette = raster.Mask();
+    for (size_t i = 0; i < instances.size(); ++i) {
+      if (masks[i].empty() || instances[i].object_id != track.object_id) continue;
+      const double overlap = Overlap(masks[i], silhouette);
+      if (overlap >= options_.min_overlap && overlap > 0.0) pairs.emplace_back(overlap, i, t);
+    }
+  }
+  std::stable_sort(pairs.begin(), pairs.end(),
+                   [](const auto& a, const auto& b) { return std::get<0>(a) > std::get<0>(b); });
+  std::vector<bool> track_taken(tracks_.size(), false);
+  std::vector<size_t> planned_tracks;
+  for (const auto& [overlap, i, t] : pairs) {
+    if (plans[i].track_id >= 0 || track_taken[t]) continue;
+    track_taken[t] = true;
+    TrackPlan& plan = plans[i];
+    const Track& track = tracks_[t];
+    plan.track_id = track.id;
+    plan.overlap = overlap;
+    plan.track = track;
+    const Eigen::Isometry3d predicted = PredictPose(track, time_s);
+    plan.starts.push_back(options_.constant_velocity ? predicted : track.cam_from_object);
+    const Eigen::AngleAxisd turn(predicted.linear() * track.cam_from_object.linear().transpose());
+    if (options_.constant_velocity &&
+        ((predicted.translation() - track.cam_from_object.translation()).norm() > kSameStartM ||
+         std::abs(turn.angle()) > kSameStartRad)) {
+      plan.starts.push_back(track.cam_from_object);
+    }
+    planned_tracks.push_back(i);
+  }
+  // Periodic re-detections: the most overdue tracks first, a few per frame.
+  if (options_.redetect_every > 0) {
+    std::vector<size_t> due;
+    for (size_t i : planned_tracks) {
+      if (plans[i].track.frames_since_detection >= options_.redetect_every) due.push_back(i);
+    }
+    std::stable_sort(due.begin(), due.end(), [&](size_t a, size_t b) {
+      return plans[a].track.frames_since_detection > plans[b].track.frames_since_detection;
+    });
+    for (size_t k = 0; k < due.size() && k < static_cast<size_t>(options_.max_periodic_per_frame); ++k) {
+      plans[due[k]].redetect = true;
+    }
+  }
+  return plans;
+}
+
+void Tracker::Update(double time_s, const std::vector<TrackPlan>& plans, std::vector<TrackedAnswer>* answers) {
+  if (answers->size() != plans.size()) G6D_THROW("Tracker::Update: " << answers->size() << " answers for " << plans.size() << " plans");
+  for (size_t i = 0; i < plans.size(); ++i) {
+    TrackedAnswer& answer = (*answers)[i];
+    const TrackPlan& plan = plans[i];
+    answer.track_id = -1;
+    answer.frames_since_detection = 0;
+    if (!options_.enabled || !answer.result.success) continue;
+    const bool detection = answer.mode != AnswerMode::kTracked;
+    auto continued = std::find_if(tracks_.begin(), tracks_.end(), [&](const Track& t) { return t.id == plan.track_id; });
+    if (plan.track_id < 0 || continued == tracks_.end()) {
+      Track track;
+      track.id = next_id_++;
+      track.object_id = plan.object_id;
+      track.cam_from_object = answer.result.cam_from_object;
+      track.score = answer.result.score;
+      track.time_s = time_s;
+      track.answers = 1;
+      tracks_.push_back(track);
+      answer.track_id = track.id;
+      continue;
+    }
+    Track& track = *continued;
+    const double dt = time_s - track.time_s;
+    // Velocity only across a continuous motion: a re-detection may have jumped.
+    track.has_velocity = answer.from_track && dt > 0.0;
+    if (track.has_velocity) {
+      const Eigen::Isometry3d step = answer.result.cam_from_object * track.cam_from_object.inverse();
+      const Eigen::AngleAxisd turn(step.linear());
+      track.angular_rad_s = turn.axis() * (turn.angle() / dt);
+      track.velocity_m_s = step.translation() / dt;
+    } else {
+      track.angular_rad_s.setZero();
+      track.velocity_m_s.setZero();
+    }
+    track.cam_from_object = answer.result.cam_from_object;
+    track.score = answer.result.score;
+    track.time_s = time_s;
+    track.frames_since_detection = detection ? 0 : track.frames_since_detection + 1;
+    ++track.answers;
+    answer.track_id = track.id;
+    answer.frames_since_detection = track.frames_since_detection;
+  }
+}
+
+}  // namespace g6d

@@ -1,0 +1,158 @@
+#pragma once
+/// @file tracker.h
+/// Tracking (issue 14): per camera, a track per object instance keeps its last answer; an
+/// instance of a new frame that continues a track is solved from the track's (predicted)
+/// pose with a few ICP + MHPO iterations (TrackPose, pipeline.h) instead of the whole pipeline, and S_A
+/// decides when that is not good enough and the full solver runs in the same frame.
+///
+/// The Tracker holds the state and makes the decisions; it runs no threads. One frame is
+/// three calls, so that the caller can solve the instances in parallel:
+///
+///   std::vector<TrackPlan> plans = tracker.Plan(time_s, instances, banks);   // sequential
+///   answers[i] = SolveWithPlan(frame, instances[i], bank, solver, tracker.options(),
+///                              plans[i], executor);                          // any thread
+///   tracker.Update(time_s, plans, answers);                                  // sequential
+///
+/// The service (one Tracker per service, i.e. per camera) and g6d-bench-dataset's tracking
+/// mode run this same code. With TrackerOptions::enabled false every plan is a detection and
+/// the answers are EstimatePose's, bit for bit.
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "core/executor.h"
+#include "core/frame.h"
+#include "solver/pipeline.h"
+#include "templates/template_bank.h"
+
+namespace g6d {
+
+/// How an answer was made (pose_estimate_t::mode on the wire).
+enum class AnswerMode {
+  kDetected = 0,    ///< the full solver, for an instance that continued no track
+  kTracked = 1,     ///< TrackPose from the track's pose, accepted
+  kRedetected = 2,  ///< the track's instance, solved by the full solver: the tracked pose
+                    ///< was lost (S_A or mask fit) or a periodic re-detection was due
+};
+
+/// Name of a mode as in the JSON lines and logs: "detected", "tracked", "redetected".
+const char* AnswerModeName(AnswerMode mode);
+
+/// Options of the Tracker. The thresholds are measured (bench/RESULTS.md, issue 14).
+struct TrackerOptions {
+  bool enabled = true;          ///< off: every instance is detected, no state is kept
+  /// A track without an answer for longer than this (frame time) is dropped, seconds.
+  double max_age_s = 1.0;
+  /// An instance continues a track of the same object when the overlap of its mask M and
+  /// the track's predicted silhouette P, |M ∩ P| / min(|M|, |P|), is at least this (an
+  /// occluded object's mask lies inside its silhouette: overlap 1).
+  double min_overlap = 0.3;
+  /// A tracked pose is lost (the full solver runs in the same frame) when its S_A is above
+  /// this ...
+  double loss_score = 0.25;
+  /// ... or the IoU of its rendered silhouette and the mask (J) is below this.
+  double min_iou = 0.6;
+  /// Re-detect a track after this many frames without a detection, to catch a confident
+  /// but wrong track; 0 = never. At most `max_periodic_per_frame` periodic re-detections
+  /// run in one frame (the most overdue first), so tracks started together do not all
+  /// re-detect in the same frame.
+  int redetect_every = 30;
+  int max_periodic_per_frame = 1;
+  /// Start from the constant-velocity prediction (from the last two answers) as well as
+  /// from the last pose.
+  bool constant_velocity = true;
+  TrackSolveOptions solve;
+
+  std::string Check() const;
+};
+
+/// One track: the last answer of an object instance.
+struct Track {
+  int id = 0;
+  std::string object_id;
+  Eigen::Isometry3d cam_from_object = Eigen::Isometry3d::Identity();  ///< last T_A
+  double score = 2.0;                 ///< last S_A
+  double time_s = 0.0;                ///< frame time of the last answer
+  bool has_velocity = false;          ///< the last two answers were close enough in time
+  Eigen::Vector3d velocity_m_s = Eigen::Vector3d::Zero();    ///< translation per second (camera frame)
+  Eigen::Vector3d angular_rad_s = Eigen::Vector3d::Zero();   ///< rotation per second (axis-angle, camera frame)
+  int frames_since_detection = 0;     ///< answers since the last (re-)detection
+  int answers = 0;                    ///< answers so far
+};
+
+/// What to do with one instance of a frame.
+struct TrackPlan {
+  std::string object_id;
+  int track_id = -1;              ///< -1: a new track (detect)
+  bool redetect = false;          ///< run the full solver even if tracking succeeds (periodic)
+  double overlap = 0.0;           ///< overlap of the mask and the predicted silhouette
+  Track track;                    ///< a copy of the continued track (when track_id >= 0)
+  std::vector<Eigen::Isometry3d> starts;  ///< TrackPose starts (last pose, prediction)
+};
+
+/// The answer for one instance and how it was made.
+struct TrackedAnswer {
+  PoseResult result;
+  AnswerMode mode = AnswerMode::kDetected;
+  int track_id = -1;              ///< filled by Tracker::Update (new tracks get their id there)
+  int frames_since_detection = 0; ///< filled by Tracker::Update; 0 for (re-)detections
+  bool lost = false;              ///< the tracked pose was refused (S_A or J)
+  bool periodic = false;          ///< a periodic re-detection ran
+  bool from_track = false;        ///< the answer is TrackPose's pose (a continuous motion)
+  double track_ms = 0.0;          ///< wall time of TrackPose (0 when it did not run)
+  double detect_ms = 0.0;         ///< wall time of EstimatePose (0 when it did not run)
+  PoseScore tracked_score;        ///< TrackPose's S_A and parts (when it ran)
+};
+
+/// The bank of an object id, or nullptr when there is none.
+using BankLookup = std::function<const TemplateBank*(const std::string& object_id)>;
+
+/// Solves one instance as `plan` says: detection for a new track; else TrackPose, and
+/// the full solver when the tracked pose is lost or a periodic re-detection is due (the
+/// answer is then the lower S of the two, so it is never worse than detection by S).
+/// Thread-safe (reads only its arguments).
+TrackedAnswer SolveWithPlan(const Frame& frame, const Instance& instance, const TemplateBank& bank,
+                            const SolverOptions& solver_options, const TrackerOptions& options,
+                            const TrackPlan& plan, Executor* executor);
+
+/// The tracks of one camera.
+class Tracker {
+ public:
+  /// Throws g6d::Error when options.Check() fails.
+  explicit Tracker(const TrackerOptions& options);
+
+  const TrackerOptions& options() const { return options_; }
+
+  /// Drops the tracks older than max_age_s at `time_s`, then assigns the instances of a
+  /// frame at `time_s` (seconds, any epoch, increasing) to tracks: greedily by the overlap
+  /// of the mask and the track's predicted silhouette, same object id, at least
+  /// min_overlap. An instance whose object has no bank (lookup gives nullptr) gets a plan
+  /// with track_id -1. Time going backwards (a log replayed again) forgets every track.
+  std::vector<TrackPlan> Plan(double time_s, const std::vector<Instance>& instances, const Camera& camera,
+                              const BankLookup& banks);
+
+  /// Records the answers of the frame planned at `time_s` (one per plan, same order):
+  /// continues or starts tracks (successful answers only), sets each answer's track_id and
+  /// frames_since_detection. A failed answer leaves its track to expire.
+  void Update(double time_s, const std::vector<TrackPlan>& plans, std::vector<TrackedAnswer>* answers);
+
+  /// The live tracks, by id.
+  const std::vector<Track>& tracks() const { return tracks_; }
+  /// Forgets every track.
+  void Clear() { tracks_.clear(); }
+
+ private:
+  TrackerOptions options_;
+  std::vector<Track> tracks_;
+  int next_id_ = 1;
+};
+
+/// The constant-velocity prediction of a track's pose at `time_s` (its last pose when it
+/// has no velocity).
+Eigen::Isometry3d PredictPose(const Track& track, double time_s);
+
+}  // namespace g6d
