@@ -79,6 +79,7 @@ TrackedAnswer SolveWithPlan(const Frame& frame, const Instance& instance, const 
   PoseResult tracked = TrackPose(frame, instance, bank, solver_options, options.solve, plan.starts, executor);
   answer.track_ms = watch.ElapsedMs();
   answer.tracked_score = tracked.details;
+  answer.tracked_pose = tracked.cam_from_object;
   answer.lost = !tracked.success || tracked.score > options.loss_score || tracked.details.iou < options.min_iou;
   if (!answer.lost && !plan.redetect) {
     answer.result = std::move(tracked);

@@ -53,7 +53,7 @@ struct TrackerOptions {
   double min_overlap = 0.3;
   /// A tracked pose is lost (the full solver runs in the same frame) when its S_A is above
   /// this ...
-  double loss_score = 0.25;
+  double loss_score = 0.20;
   /// ... or the IoU of its rendered silhouette and the mask (J) is below this.
   double min_iou = 0.6;
   /// Re-detect a track after this many frames without a detection, to catch a confident
@@ -106,6 +106,7 @@ struct TrackedAnswer {
   double track_ms = 0.0;          ///< wall time of TrackPose (0 when it did not run)
   double detect_ms = 0.0;         ///< wall time of EstimatePose (0 when it did not run)
   PoseScore tracked_score;        ///< TrackPose's S_A and parts (when it ran)
+  Eigen::Isometry3d tracked_pose = Eigen::Isometry3d::Identity();  ///< TrackPose's T_A (when it ran)
 };
 
 /// The bank of an object id, or nullptr when there is none.
