@@ -106,7 +106,8 @@ int RunSequence(const g6d::BopDataset& dataset, const std::string& dataset_dir, 
   std::map<g6d::AnswerMode, int> modes;
   int lost = 0, periodic = 0, wrong_before = 0, wrong_after = 0, instances_before = 0, instances_after = 0;
   int longest_wrong_run_after = 0;
-  std::vector<double> track_ms, tracked_answer_ms, frame_tracking_ms, frame_baseline_ms, detect_ms;
+  std::vector<double> track_ms, tracked_answer_ms, frame_tracking_ms, frame_baseline_ms, detect_ms, background_ms;
+  int corrections = 0;
   // S and J of every TrackPose result, by correctness.
   std::vector<double> s_correct, s_wrong;
   for (const auto& [scene_id, images] : TargetsByScene(dataset)) {
@@ -140,6 +141,17 @@ int RunSequence(const g6d::BopDataset& dataset, const std::string& dataset_dir, 
       }
       tracker.Update(time_s, plans, &answers);
       frame_tracking_ms.push_back(watch.ElapsedMs());
+      // Background re-detections (the service runs them on a spare thread): solved here,
+      // outside the frame's time, and applied before the next frame.
+      for (size_t i = 0; i < batch.size(); ++i) {
+        const g6d::TrackedAnswer& a = answers[i];
+        if (!a.confirm_requested) continue;
+        watch.Restart();
+        const g6d::PoseResult detection = g6d::EstimatePose(frame, batch[i], *lookup(batch[i].object_id), solver, pool);
+        background_ms.push_back(watch.ElapsedMs());
+        corrections += tracker.ApplyConfirmation(a.track_id, a.result.cam_from_object, a.result.score, detection,
+                                                 lookup(batch[i].object_id)->diameter_m);
+      }
       std::vector<g6d::PoseResult> detections(batch.size());
       if (baseline) {
         watch.Restart();
@@ -201,6 +213,11 @@ int RunSequence(const g6d::BopDataset& dataset, const std::string& dataset_dir, 
   if (baseline) {
     std::printf("| frame, every frame solved | %.1f | %.1f | %zu |\n", Percentile(frame_baseline_ms, 0.5), Percentile(frame_baseline_ms, 0.95), frame_baseline_ms.size());
   }
+  if (!background_ms.empty()) {
+    std::printf("| background re-detection, per instance (not in the frame) | %.1f | %.1f | %zu |\n", Percentile(background_ms, 0.5),
+                Percentile(background_ms, 0.95), background_ms.size());
+    std::printf("\nbackground re-detections: %zu, tracks corrected by them: %d\n", background_ms.size(), corrections);
+  }
   std::printf("\nwrong poses published (ADD(-S) >= 0.1 d): %d of %d before", wrong_before, instances_before);
   if (abrupt_frame >= 0) {
     std::printf(", %d of %d from the abrupt move at frame %d on; longest run of wrong frames of one instance after it: %d",
@@ -215,7 +232,7 @@ int RunSequence(const g6d::BopDataset& dataset, const std::string& dataset_dir, 
 // One TrackPose outcome from a perturbed GT start.
 struct Probe {
   double rotation_deg = 0.0, translation_d = 0.0;
-  double s = 2.0, iou = 0.0, error_d = 1e9, ms = 0.0;
+  double s = 2.0, iou = 0.0, error_d = 1e9, ms = 0.0, prepare_ms = 0.0, icp_ms = 0.0, mhpo_ms = 0.0;
   bool success = false;
 };
 
@@ -262,6 +279,9 @@ int RunPerturb(const g6d::BopDataset& dataset, const std::string& dataset_dir, O
         probe.s = result.score;
         probe.iou = result.details.iou;
         probe.ms = result.stages.total_ms;
+        probe.prepare_ms = result.stages.prepare_ms;
+        probe.icp_ms = result.stages.icp_ms;
+        probe.mhpo_ms = result.stages.mhpo_ms;
         if (result.success) probe.error_d = objects->ErrorD(target.obj_id, result.cam_from_object, gt.cam_from_object);
         probes.push_back(probe);
         if (records) {
@@ -302,9 +322,16 @@ int RunPerturb(const g6d::BopDataset& dataset, const std::string& dataset_dir, O
     std::printf("| %.2f | %d of %d | %d of %d (%.1f%%) | %.1f%% |\n", threshold, correct_kept, correct_total, wrong_kept, wrong_total,
                 100.0 * wrong_kept / std::max(1, wrong_total), 100.0 * (correct_total - correct_kept) / std::max(1, correct_total));
   }
-  std::vector<double> ms;
-  for (const Probe& p : probes) ms.push_back(p.ms);
-  std::printf("\nTrackPose time per solve: p50 %.1f ms, p95 %.1f ms\n", Percentile(ms, 0.5), Percentile(ms, 0.95));
+  std::vector<double> ms, prepare, icp, mhpo;
+  for (const Probe& p : probes) {
+    ms.push_back(p.ms);
+    prepare.push_back(p.prepare_ms);
+    icp.push_back(p.icp_ms);
+    mhpo.push_back(p.mhpo_ms);
+  }
+  std::printf("\nTrackPose time per solve (ms): total p50 %.1f p95 %.1f; prepare %.1f / %.1f, ICP %.1f / %.1f, MHPO %.1f / %.1f\n",
+              Percentile(ms, 0.5), Percentile(ms, 0.95), Percentile(prepare, 0.5), Percentile(prepare, 0.95), Percentile(icp, 0.5),
+              Percentile(icp, 0.95), Percentile(mhpo, 0.5), Percentile(mhpo, 0.95));
   return 0;
 }
 
@@ -337,6 +364,8 @@ int main(int argc, char** argv) {
   app.add_option("--max-age-s", tracker.max_age_s, "tracks expire after this long without an answer")->capture_default_str();
   app.add_option("--min-overlap", tracker.min_overlap, "association: mask / predicted silhouette overlap at least")->capture_default_str();
   app.add_flag("--no-constant-velocity", no_velocity, "start only from the last pose");
+  app.add_flag("--background-redetect", tracker.background_redetect,
+               "periodic re-detections outside the frame (as the service runs them), applied before the next frame");
   app.add_option("--track-icp-iterations", tracker.solve.icp_iterations, "ICP iterations of a tracked solve")->capture_default_str();
   app.add_option("--track-mhpo-rounds", tracker.solve.mhpo_rounds, "MHPO rounds of a tracked solve")->capture_default_str();
   app.add_option("--track-source-points", tracker.solve.max_source_points, "ICP source points of a tracked solve")->capture_default_str();

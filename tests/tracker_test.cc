@@ -245,6 +245,50 @@ TEST_F(TrackerTest, PeriodicRedetectionIsDueAfterNFramesOnePerFrame) {
   EXPECT_EQ((modes[6] == AnswerMode::kRedetected) + (modes[7] == AnswerMode::kRedetected), 1);
 }
 
+TEST_F(TrackerTest, ABackgroundRedetectionCorrectsAConfidentlyWrongTrack) {
+  ThreadPool pool(2);
+  TrackerOptions options;
+  options.redetect_every = 1;
+  options.background_redetect = true;
+  Tracker tracker(options);
+  const Eigen::Isometry3d truth = StartPose();
+  const auto [frame, instance] = View(truth);
+  RunFrame(&tracker, 0.0, frame, {instance}, Banks(), &pool);
+  RunFrame(&tracker, 1 / 30.0, frame, {instance}, Banks(), &pool);
+  // Frame 2: due, answered by tracking at once, the re-detection requested.
+  std::vector<TrackedAnswer> answers = RunFrame(&tracker, 2 / 30.0, frame, {instance}, Banks(), &pool);
+  ASSERT_EQ(answers[0].mode, AnswerMode::kTracked);
+  ASSERT_TRUE(answers[0].confirm_requested);
+  EXPECT_EQ(answers[0].detect_ms, 0.0);
+  EXPECT_TRUE(tracker.tracks()[0].confirmation_pending);
+  // While it runs, the track is not due again.
+  std::vector<TrackPlan> plans;
+  answers = RunFrame(&tracker, 3 / 30.0, frame, {instance}, Banks(), &pool, &plans);
+  EXPECT_FALSE(plans[0].redetect);
+  // A detection that agrees changes nothing but the count.
+  const PoseResult agreeing = EstimatePose(frame, instance, *bank_, SolverOptions(), &pool);
+  const Eigen::Isometry3d tracked = answers[0].result.cam_from_object;
+  EXPECT_FALSE(tracker.ApplyConfirmation(1, tracked, answers[0].result.score, agreeing, bank_->diameter_m));
+  EXPECT_FALSE(tracker.tracks()[0].confirmation_pending);
+  EXPECT_EQ(tracker.tracks()[0].frames_since_detection, 0);
+  // One that scores clearly lower elsewhere moves the track by the motion tracked since:
+  // here the track pretends to have moved 1 cm along x after the confirmed frame.
+  PoseResult better = agreeing;
+  better.cam_from_object.translation().z() += 0.03;
+  better.score = 0.01;
+  const Eigen::Isometry3d then = tracked;
+  Eigen::Isometry3d shifted_then = then;
+  shifted_then.translation().x() -= 0.01;  // the frame of the re-detection, 1 cm before now
+  ASSERT_TRUE(tracker.ApplyConfirmation(1, shifted_then, 0.5, better, bank_->diameter_m));
+  const Track& track = tracker.tracks()[0];
+  const Eigen::Isometry3d expected = tracked * shifted_then.inverse() * better.cam_from_object;
+  EXPECT_TRUE(track.cam_from_object.isApprox(expected, 1e-12));
+  EXPECT_TRUE(track.corrected);
+  EXPECT_FALSE(track.has_velocity);
+  // Unknown tracks are ignored.
+  EXPECT_FALSE(tracker.ApplyConfirmation(99, then, 0.5, better, bank_->diameter_m));
+}
+
 TEST_F(TrackerTest, TrackingOffGivesTheSingleFrameAnswersExactly) {
   ThreadPool pool(2);
   TrackerOptions options;

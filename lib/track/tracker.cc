@@ -30,6 +30,7 @@ std::string TrackerOptions::Check() const {
   else if (!(min_iou >= 0.0 && min_iou <= 1.0)) out << "TrackerOptions.min_iou must be in [0, 1] (got " << min_iou << ")";
   else if (redetect_every < 0) out << "TrackerOptions.redetect_every must be >= 0 (got " << redetect_every << ")";
   else if (max_periodic_per_frame < 1) out << "TrackerOptions.max_periodic_per_frame must be >= 1 (got " << max_periodic_per_frame << ")";
+  else if (!(confirm_margin >= 0.0 && confirm_margin < 2.0)) out << "TrackerOptions.confirm_margin must be in [0, 2) (got " << confirm_margin << ")";
   if (!out.str().empty()) return out.str();
   return solve.Check();
 }
@@ -81,10 +82,12 @@ TrackedAnswer SolveWithPlan(const Frame& frame, const Instance& instance, const 
   answer.tracked_score = tracked.details;
   answer.tracked_pose = tracked.cam_from_object;
   answer.lost = !tracked.success || tracked.score > options.loss_score || tracked.details.iou < options.min_iou;
-  if (!answer.lost && !plan.redetect) {
+  if (!answer.lost && (!plan.redetect || options.background_redetect)) {
     answer.result = std::move(tracked);
-    answer.mode = AnswerMode::kTracked;
+    // A track that a background re-detection corrected answers as re-detected once.
+    answer.mode = plan.track.corrected ? AnswerMode::kRedetected : AnswerMode::kTracked;
     answer.from_track = true;
+    answer.confirm_requested = plan.redetect;
     return answer;
   }
   // Lost, or a periodic check: the full solver, and the lower S of the two.
@@ -172,7 +175,8 @@ std::vector<TrackPlan> Tracker::Plan(double time_s, const std::vector<Instance>&
   if (options_.redetect_every > 0) {
     std::vector<size_t> due;
     for (size_t i : planned_tracks) {
-      if (plans[i].track.frames_since_detection >= options_.redetect_every) due.push_back(i);
+      const Track& track = plans[i].track;
+      if (track.frames_since_detection >= options_.redetect_every && !track.confirmation_pending) due.push_back(i);
     }
     std::stable_sort(due.begin(), due.end(), [&](size_t a, size_t b) {
       return plans[a].track.frames_since_detection > plans[b].track.frames_since_detection;
@@ -223,10 +227,40 @@ void Tracker::Update(double time_s, const std::vector<TrackPlan>& plans, std::ve
     track.score = answer.result.score;
     track.time_s = time_s;
     track.frames_since_detection = detection ? 0 : track.frames_since_detection + 1;
+    track.confirmation_pending = track.confirmation_pending || answer.confirm_requested;
+    track.corrected = false;
     ++track.answers;
     answer.track_id = track.id;
     answer.frames_since_detection = track.frames_since_detection;
   }
+}
+
+bool Tracker::ApplyConfirmation(int track_id, const Eigen::Isometry3d& tracked_pose, double tracked_score,
+                                const PoseResult& detection, double diameter_m) {
+  auto track = std::find_if(tracks_.begin(), tracks_.end(), [&](const Track& t) { return t.id == track_id; });
+  if (track == tracks_.end()) return false;
+  track->confirmation_pending = false;
+  track->frames_since_detection = 0;
+  if (!detection.success || !(detection.score < tracked_score - options_.confirm_margin)) return false;
+  // Far apart: the mean displacement of points a diameter apart around the origin (a
+  // cheap stand-in for ADD without the model's points).
+  const Eigen::Isometry3d difference = detection.cam_from_object * tracked_pose.inverse();
+  const double half = 0.5 * diameter_m;
+  double moved = 0.0;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (double sign : {-1.0, 1.0}) {
+      const Eigen::Vector3d point = tracked_pose.translation() + sign * half * Eigen::Vector3d::Unit(axis);
+      moved += (difference * point - point).norm() / 6.0;
+    }
+  }
+  if (moved <= 0.1 * diameter_m) return false;
+  // The motion tracked since that frame, applied to the detection.
+  track->cam_from_object = track->cam_from_object * tracked_pose.inverse() * detection.cam_from_object;
+  track->has_velocity = false;
+  track->velocity_m_s.setZero();
+  track->angular_rad_s.setZero();
+  track->corrected = true;
+  return true;
 }
 
 }  // namespace g6d

@@ -62,6 +62,14 @@ struct TrackerOptions {
   /// re-detect in the same frame.
   int redetect_every = 30;
   int max_periodic_per_frame = 1;
+  /// Periodic re-detections in the background: the frame is answered by tracking at once
+  /// (TrackedAnswer::confirm_requested) and the caller runs the full solver on that frame
+  /// elsewhere (a spare thread) and hands the result to Tracker::ApplyConfirmation. A
+  /// detection that scores lower than the tracked pose by `confirm_margin` and lies
+  /// elsewhere corrects the track (moved on by the motion tracked since). Off: the
+  /// periodic re-detection runs in the frame, like a lost track's.
+  bool background_redetect = false;
+  double confirm_margin = 0.02;
   /// Start from the constant-velocity prediction (from the last two answers) as well as
   /// from the last pose.
   bool constant_velocity = true;
@@ -82,6 +90,8 @@ struct Track {
   Eigen::Vector3d angular_rad_s = Eigen::Vector3d::Zero();   ///< rotation per second (axis-angle, camera frame)
   int frames_since_detection = 0;     ///< answers since the last (re-)detection
   int answers = 0;                    ///< answers so far
+  bool confirmation_pending = false;  ///< a background re-detection of this track is running
+  bool corrected = false;             ///< a background re-detection moved the pose since the last answer
 };
 
 /// What to do with one instance of a frame.
@@ -103,6 +113,9 @@ struct TrackedAnswer {
   bool lost = false;              ///< the tracked pose was refused (S_A or J)
   bool periodic = false;          ///< a periodic re-detection ran
   bool from_track = false;        ///< the answer is TrackPose's pose (a continuous motion)
+  /// A periodic re-detection is due and TrackerOptions::background_redetect is on: run
+  /// EstimatePose on this frame and instance elsewhere, then Tracker::ApplyConfirmation.
+  bool confirm_requested = false;
   double track_ms = 0.0;          ///< wall time of TrackPose (0 when it did not run)
   double detect_ms = 0.0;         ///< wall time of EstimatePose (0 when it did not run)
   PoseScore tracked_score;        ///< TrackPose's S_A and parts (when it ran)
@@ -140,6 +153,15 @@ class Tracker {
   /// continues or starts tracks (successful answers only), sets each answer's track_id and
   /// frames_since_detection. A failed answer leaves its track to expire.
   void Update(double time_s, const std::vector<TrackPlan>& plans, std::vector<TrackedAnswer>* answers);
+
+  /// A background re-detection of track `track_id` on a frame where the track's answer was `tracked_pose` with S `tracked_score`: `detection` (EstimatePose's
+  /// result on that frame). When it scores lower by options.confirm_margin and lies farther
+  /// than a tenth of `diameter_m` from the tracked pose, the track is corrected: its pose
+  /// becomes the detection moved by the motion tracked since that frame, and its next
+  /// answer is a re-detection. Either way its re-detection count restarts. Returns true
+  /// when the track was corrected; false also when the track is gone.
+  bool ApplyConfirmation(int track_id, const Eigen::Isometry3d& tracked_pose, double tracked_score,
+                         const PoseResult& detection, double diameter_m);
 
   /// The live tracks, by id.
   const std::vector<Track>& tracks() const { return tracks_; }
