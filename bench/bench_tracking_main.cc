@@ -364,8 +364,10 @@ int main(int argc, char** argv) {
   app.add_option("--max-age-s", tracker.max_age_s, "tracks expire after this long without an answer")->capture_default_str();
   app.add_option("--min-overlap", tracker.min_overlap, "association: mask / predicted silhouette overlap at least")->capture_default_str();
   app.add_flag("--no-constant-velocity", no_velocity, "start only from the last pose");
-  app.add_flag("--background-redetect", tracker.background_redetect,
-               "periodic re-detections outside the frame (as the service runs them), applied before the next frame");
+  bool redetect_in_frame = false;
+  app.add_flag("--redetect-in-frame", redetect_in_frame,
+               "periodic re-detections in the frame (default: outside it, as the service runs them in the background, "
+               "applied before the next frame)");
   app.add_option("--track-icp-iterations", tracker.solve.icp_iterations, "ICP iterations of a tracked solve")->capture_default_str();
   app.add_option("--track-mhpo-rounds", tracker.solve.mhpo_rounds, "MHPO rounds of a tracked solve")->capture_default_str();
   app.add_option("--track-source-points", tracker.solve.max_source_points, "ICP source points of a tracked solve")->capture_default_str();
@@ -377,6 +379,7 @@ int main(int argc, char** argv) {
     if (!(fps > 0.0)) G6D_THROW("--fps must be > 0 (got " << fps << ")");
     if (every < 1) G6D_THROW("--every must be >= 1 (got " << every << ")");
     tracker.constant_velocity = !no_velocity;
+    tracker.background_redetect = !redetect_in_frame;
     tracker.enabled = !tracking_off;
     const std::string bad = tracker.Check();
     if (!bad.empty()) G6D_THROW(bad);
