@@ -969,8 +969,10 @@ SampleSequencePlan PlanSampleSequence(const SampleOptions& options,
   const std::vector<int> order = CheckOrder(frames, sequence.abrupt_frame);
   cv::RNG rng(DerivedSeed(options.seed, kSequencePart));
 
+  // A single object cannot be hidden by another.
+  const bool want_occlusion = n >= 2;
   SampleSequencePlan best;
-  bool have_valid = false;
+  int valid_candidates = 0;
   int tries = 0;
   for (; tries < options.max_tries; ++tries) {
     std::vector<Placement> placements;
@@ -1010,13 +1012,12 @@ SampleSequencePlan PlanSampleSequence(const SampleOptions& options,
     }
     if (!valid) continue;
     plan.occluded = plan.min_visib_fract < options.occlusion_below_fraction;
-    if (!have_valid || plan.occluded) {
-      best = std::move(plan);
-      have_valid = true;
-    }
-    if (best.occluded) break;
+    if (valid_candidates == 0 || plan.occluded) best = std::move(plan);
+    ++valid_candidates;
+    if (best.occluded || !want_occlusion || valid_candidates >= sequence.max_valid_candidates)
+      break;
   }
-  if (!have_valid) {
+  if (valid_candidates == 0) {
     G6D_THROW("no valid sequence of "
               << n << " objects in " << options.max_tries
               << " tries (every object inside the image and at least "
@@ -1189,6 +1190,8 @@ std::string SampleSequenceOptions::Check() const {
     out << "abrupt_frame must be -1 (none) or an image index (got " << abrupt_frame << ")";
   else if (abrupt_object < 0)
     out << "abrupt_object must be >= 0 (got " << abrupt_object << ")";
+  else if (max_valid_candidates < 1)
+    out << "max_valid_candidates must be >= 1 (got " << max_valid_candidates << ")";
   else if (!range(min_sweep_deg, max_sweep_deg) || max_sweep_deg > 180.0) {
     out << "min_sweep_deg / max_sweep_deg must satisfy 0 <= min <= max <= 180 (got "
         << min_sweep_deg << ", " << max_sweep_deg << ")";

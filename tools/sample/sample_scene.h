@@ -111,6 +111,9 @@ struct SampleSequenceOptions {
   double max_jump_m = 0.12;
   double min_jump_turn_deg = 60.0;  ///< its rotation about the table normal, degrees
   double max_jump_turn_deg = 120.0;
+  /// Valid candidates checked at most while looking for one with mutual occlusion (each
+  /// costs a check of every image); then the first valid one is kept.
+  int max_valid_candidates = 20;
 
   /// Empty when valid, else names the bad field.
   std::string Check() const;
@@ -202,7 +205,8 @@ struct SampleSequencePlan {
 /// arrangement of `objects` (as in every image of the classic sample), a camera path and
 /// the jump, redrawn until every object is inside the image with the border margin and at
 /// least min_visible_fraction visible in every image, preferring a candidate with mutual
-/// occlusion in some image. Throws g6d::Error on bad options or when no valid candidate is
+/// occlusion in some image (among at most sequence.max_valid_candidates valid ones; a
+/// single object takes the first valid one). Throws g6d::Error on bad options or when no valid candidate is
 /// found within options.max_tries.
 SampleSequencePlan PlanSampleSequence(const SampleOptions& options,
                                       const std::vector<SampleObject>& objects);
