@@ -498,7 +498,8 @@ std::vector<std::vector<Eigen::Isometry3d>> WorldFromObjects(const std::string& 
   for (const BopFrame& frame : scene.frames) {
     const Eigen::Isometry3d world_from_cam = CamFromWorld(root, frame.im_id).inverse();
     poses.emplace_back();
-    for (const BopGtInstance& gt : frame.gt) poses.back().push_back(world_from_cam * gt.cam_from_object);
+    for (const BopGtInstance& gt : frame.gt)
+      poses.back().push_back(world_from_cam * gt.cam_from_object);
   }
   return poses;
 }
@@ -716,7 +717,8 @@ TEST_F(MakeSampleSequenceTool, SameSeedGivesTheSameFilesAndReuseKeepsThem) {
       EXPECT_EQ(hash, b.at(file)) << file;
     }
   }
-  EXPECT_EQ(ReadJson(*root_ + "/sample.json")["options"], ReadJson(other + "/sample.json")["options"]);
+  EXPECT_EQ(ReadJson(*root_ + "/sample.json")["options"],
+            ReadJson(other + "/sample.json")["options"]);
   // --reuse keeps the sequence, and redoes it as the classic sample (other options).
   EXPECT_THAT(test::RunCommand(Command(other) + " --reuse").output, HasSubstr("up to date"));
   const test::CommandResult classic = test::RunCommand(

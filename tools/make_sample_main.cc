@@ -178,8 +178,9 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(1, 3));
   CLI::Option* fps_option =
-      app.add_option("--fps", o.fps,
-                     "frame rate of the log timestamps (and of the camera path), Hz (--sequence: 30)")
+      app.add_option(
+             "--fps", o.fps,
+             "frame rate of the log timestamps (and of the camera path), Hz (--sequence: 30)")
           ->capture_default_str();
   int abrupt_frame = -1;
   bool sequence = false;
@@ -315,19 +316,19 @@ int main(int argc, char** argv) {
                          {"mesh", "models/" + object.name + ".obj"}});
     }
     Json manifest = {{"generator", "g6d-make-sample"},
-                           {"format", kManifestFormat},
-                           {"generator_hash", generator_hash},
-                           {"options", OptionsJson(o)},
-                           {"objects", objects},
-                           {"frames", scene.frames_written},
-                           {"instances", scene.instances_written},
-                           {"occluded_instances", scene.occluded_instances},
-                           {"min_visib_fract", scene.min_visib_fract},
-                           {"mean_visib_fract", scene.mean_visib_fract},
-                           {"scene", "test/000001"},
-                           {"caches", o.caches ? Json(kCacheFolder) : Json(nullptr)},
-                           {"log", o.log ? Json(kLogName) : Json(nullptr)},
-                           {"channel", "G6D_RGBD"}};
+                     {"format", kManifestFormat},
+                     {"generator_hash", generator_hash},
+                     {"options", OptionsJson(o)},
+                     {"objects", objects},
+                     {"frames", scene.frames_written},
+                     {"instances", scene.instances_written},
+                     {"occluded_instances", scene.occluded_instances},
+                     {"min_visib_fract", scene.min_visib_fract},
+                     {"mean_visib_fract", scene.mean_visib_fract},
+                     {"scene", "test/000001"},
+                     {"caches", o.caches ? Json(kCacheFolder) : Json(nullptr)},
+                     {"log", o.log ? Json(kLogName) : Json(nullptr)},
+                     {"channel", "G6D_RGBD"}};
     const g6d::SampleSequencePlan& plan = scene.sequence;
     const bool jumps = plan.abrupt_object >= 0;
     if (o.sample.sequence.enabled) {

@@ -638,8 +638,7 @@ void ShadeFrame(const SampleOptions& options, const std::vector<SampleObject>& o
   std::vector<const Mesh*> meshes;
   for (const SampleObject& object : objects) meshes.push_back(&object.mesh);
   std::vector<Eigen::Isometry3d> poses;
-  for (const SampleInstance& instance : frame->instances)
-    poses.push_back(instance.cam_from_object);
+  for (const SampleInstance& instance : frame->instances) poses.push_back(instance.cam_from_object);
 
   // 1. Depth and visible masks: objects and table by z-buffer, at the camera's resolution.
   cv::Mat nearest;
@@ -792,15 +791,15 @@ constexpr uint64_t kObjectsPart = 1, kTablePart = 2, kSequencePart = 3, kFramePa
 struct CameraPath {
   Eigen::Vector3d target = Eigen::Vector3d::Zero();  // metres, world
   Eigen::Vector3d drift = Eigen::Vector3d::Zero();   // metres, horizontal
-  double azimuth_mid = 0.0, sweep = 0.0;              // radians
+  double azimuth_mid = 0.0, sweep = 0.0;             // radians
   double elevation_mid = 0.0, elevation_amplitude = 0.0, elevation_phase = 0.0;  // radians
   double distance_mid = 0.0, distance_amplitude = 0.0, distance_phase = 0.0;     // metres
 };
 
 // A value in [low, high] and its amplitude in [min_amplitude, max_amplitude] such that
 // value +- amplitude stays in [low, high].
-void DrawWobble(double low, double high, double min_amplitude, double max_amplitude,
-                cv::RNG* rng, double* mid, double* amplitude) {
+void DrawWobble(double low, double high, double min_amplitude, double max_amplitude, cv::RNG* rng,
+                double* mid, double* amplitude) {
   *amplitude = std::min(Uniform(rng, min_amplitude, max_amplitude), (high - low) / 2);
   *mid = Uniform(rng, low + *amplitude, high - *amplitude);
 }
@@ -818,8 +817,8 @@ CameraPath DrawCameraPath(const SampleOptions& options, const std::vector<Placem
       sequence.look_at_drift_m * Eigen::Vector3d(std::cos(drift_angle), std::sin(drift_angle), 0);
   path.azimuth_mid = Uniform(rng, 0, 2 * M_PI);
   const double direction = rng->uniform(0, 2) == 0 ? 1.0 : -1.0;
-  path.sweep = direction * Uniform(rng, sequence.min_sweep_deg, sequence.max_sweep_deg) * M_PI /
-               180.0;
+  path.sweep =
+      direction * Uniform(rng, sequence.min_sweep_deg, sequence.max_sweep_deg) * M_PI / 180.0;
   constexpr double kRadiansPerDegree = M_PI / 180.0;
   DrawWobble(options.min_elevation_deg * kRadiansPerDegree,
              options.max_elevation_deg * kRadiansPerDegree,
@@ -839,12 +838,10 @@ Eigen::Isometry3d CameraOnPath(const CameraPath& path, double scale, double s) {
   const double centred = s - 0.5;
   const Eigen::Vector3d target = path.target + scale * centred * path.drift;
   const double azimuth = path.azimuth_mid + scale * centred * path.sweep;
-  const double elevation =
-      path.elevation_mid +
-      scale * path.elevation_amplitude * std::sin(2 * M_PI * s + path.elevation_phase);
-  const double distance =
-      path.distance_mid +
-      scale * path.distance_amplitude * std::sin(2 * M_PI * s + path.distance_phase);
+  const double elevation = path.elevation_mid + scale * path.elevation_amplitude *
+                                                    std::sin(2 * M_PI * s + path.elevation_phase);
+  const double distance = path.distance_mid + scale * path.distance_amplitude *
+                                                  std::sin(2 * M_PI * s + path.distance_phase);
   const Eigen::Vector3d eye =
       target + distance * Eigen::Vector3d(std::cos(elevation) * std::cos(azimuth),
                                           std::cos(elevation) * std::sin(azimuth),
@@ -1172,8 +1169,8 @@ std::string SampleOptions::Check() const {
     out << "sequence." << bad;
   } else if (sequence.enabled && sequence.abrupt_frame != -1 &&
              (sequence.abrupt_frame < 1 || sequence.abrupt_frame >= num_frames)) {
-    out << "sequence.abrupt_frame must be -1 or in 1..num_frames-1 = " << num_frames - 1
-        << " (got " << sequence.abrupt_frame << ")";
+    out << "sequence.abrupt_frame must be -1 or in 1..num_frames-1 = " << num_frames - 1 << " (got "
+        << sequence.abrupt_frame << ")";
   }
   return out.str();
 }
@@ -1366,10 +1363,9 @@ SampleReport WriteSampleDataset(const SampleOptions& options, const std::string&
   for (int im_id = 0; im_id < options.num_frames; ++im_id) {
     const uint64_t frame_seed = DerivedSeed(options.seed, kFramePartBase + im_id);
     const SampleFrame frame =
-        sequence.enabled
-            ? RenderPlannedFrame(options, report.objects, table, report.sequence, im_id,
-                                 frame_seed, &renderers)
-            : RenderFrameWith(options, report.objects, table, frame_seed, &renderers);
+        sequence.enabled ? RenderPlannedFrame(options, report.objects, table, report.sequence,
+                                              im_id, frame_seed, &renderers)
+                         : RenderFrameWith(options, report.objects, table, frame_seed, &renderers);
     cv::Mat bgr;
     cv::cvtColor(frame.rgb, bgr, cv::COLOR_RGB2BGR);
     WriteImage(scene / "rgb" / ImageName(im_id), bgr);
@@ -1424,11 +1420,10 @@ SampleReport WriteSampleDataset(const SampleOptions& options, const std::string&
     char line[200];
     if (sequence.enabled) {
       const SampleSequencePlan& plan = report.sequence;
-      std::snprintf(line, sizeof(line), "image %d/%d: visible fractions%s%s%s", im_id + 1,
-                    options.num_frames, visib_text.c_str(),
-                    im_id == plan.abrupt_frame ? ", jumped: " : "",
-                    im_id == plan.abrupt_frame ? report.objects[plan.abrupt_object].name.c_str()
-                                               : "");
+      std::snprintf(
+          line, sizeof(line), "image %d/%d: visible fractions%s%s%s", im_id + 1, options.num_frames,
+          visib_text.c_str(), im_id == plan.abrupt_frame ? ", jumped: " : "",
+          im_id == plan.abrupt_frame ? report.objects[plan.abrupt_object].name.c_str() : "");
     } else {
       std::snprintf(line, sizeof(line), "image %d/%d: visible fractions%s (%d arrangement%s drawn)",
                     im_id + 1, options.num_frames, visib_text.c_str(), frame.tries,

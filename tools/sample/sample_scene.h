@@ -183,19 +183,19 @@ struct SampleFrame {
 /// the camera is in every image. World = table frame, metres.
 struct SampleSequencePlan {
   std::vector<Eigen::Isometry3d> world_from_object;  ///< per object, before the jump
-  int abrupt_frame = -1;                              ///< as in the options; -1 = no jump
-  int abrupt_object = -1;                             ///< object index that jumps; -1 = none
+  int abrupt_frame = -1;                             ///< as in the options; -1 = no jump
+  int abrupt_object = -1;                            ///< object index that jumps; -1 = none
   /// The displaced object from abrupt_frame on.
   Eigen::Isometry3d jumped_world_from_object = Eigen::Isometry3d::Identity();
   double jump_m = 0.0;         ///< its translation, metres
   double jump_turn_deg = 0.0;  ///< its rotation about the table normal, degrees (signed)
   std::vector<Eigen::Isometry3d> cam_from_world;  ///< per image
   double sweep_deg = 0.0;                         ///< azimuth swept, after any slow-down (signed)
-  double max_step_m = 0.0;    ///< largest camera centre move between consecutive images
-  double max_step_deg = 0.0;  ///< largest camera rotation between consecutive images
+  double max_step_m = 0.0;       ///< largest camera centre move between consecutive images
+  double max_step_deg = 0.0;     ///< largest camera rotation between consecutive images
   double min_visib_fract = 1.0;  ///< least visible object over the sequence (objects only)
-  bool occluded = false;  ///< some image has an object below occlusion_below_fraction
-  int tries = 0;          ///< candidates drawn
+  bool occluded = false;         ///< some image has an object below occlusion_below_fraction
+  int tries = 0;                 ///< candidates drawn
 
   /// world_from_object of object k in image `im_id`.
   Eigen::Isometry3d WorldFromObject(int im_id, int k) const;
@@ -206,8 +206,8 @@ struct SampleSequencePlan {
 /// the jump, redrawn until every object is inside the image with the border margin and at
 /// least min_visible_fraction visible in every image, preferring a candidate with mutual
 /// occlusion in some image (among at most sequence.max_valid_candidates valid ones; a
-/// single object takes the first valid one). Throws g6d::Error on bad options or when no valid candidate is
-/// found within options.max_tries.
+/// single object takes the first valid one). Throws g6d::Error on bad options or when no valid
+/// candidate is found within options.max_tries.
 SampleSequencePlan PlanSampleSequence(const SampleOptions& options,
                                       const std::vector<SampleObject>& objects);
 
