@@ -488,5 +488,259 @@ TEST(MakeSampleToolOptions, BadOptionsFailWithAMessage) {
   EXPECT_THAT(noise.output, HasSubstr("depth_noise_m"));
 }
 
+// Sequence mode (issue 14, item 4): one arrangement, a smooth camera path, one jump.
+
+// world_from_object of every instance of every image of a written scene, per image then
+// object order.
+std::vector<std::vector<Eigen::Isometry3d>> WorldFromObjects(const std::string& root) {
+  const BopScene scene = LoadBopScene(root, 1);
+  std::vector<std::vector<Eigen::Isometry3d>> poses;
+  for (const BopFrame& frame : scene.frames) {
+    const Eigen::Isometry3d world_from_cam = CamFromWorld(root, frame.im_id).inverse();
+    poses.emplace_back();
+    for (const BopGtInstance& gt : frame.gt)
+      poses.back().push_back(world_from_cam * gt.cam_from_object);
+  }
+  return poses;
+}
+
+// The angle (degrees) of a rotation about the table normal, and how far its axis is from
+// that normal (degrees; 0 for a pure turn about it).
+void TurnAboutTheNormal(const Eigen::Matrix3d& rotation, double* turn_deg, double* tilt_deg) {
+  const Eigen::AngleAxisd turn(rotation);
+  *turn_deg = turn.angle() * 180.0 / M_PI;
+  *tilt_deg = std::acos(std::min(1.0, std::abs(turn.axis().z()))) * 180.0 / M_PI;
+}
+
+SampleOptions ShortSequenceOptions() {
+  SampleOptions options;
+  options.num_frames = 12;
+  options.seed = 2;
+  options.sequence.enabled = true;
+  options.sequence.abrupt_frame = 6;
+  return options;
+}
+
+TEST(PlanSampleSequence, ShortSequencesAreSlowedToTheRateBounds) {
+  const SampleOptions options = ShortSequenceOptions();
+  const std::vector<SampleObject> objects = MakeSampleObjects(options.num_objects, 1);
+  const SampleSequencePlan plan = PlanSampleSequence(options, objects);
+  ASSERT_EQ(plan.cam_from_world.size(), 12u);
+  const double fps = options.sequence.fps;
+  EXPECT_LE(plan.max_step_m * fps, options.sequence.max_camera_speed_m_s);
+  EXPECT_LE(plan.max_step_deg * fps, options.sequence.max_rotation_deg_s);
+  // 0.37 s at 30 fps: far less than the 40-70 degree sweep, but a real motion.
+  EXPECT_GT(std::abs(plan.sweep_deg), 3.0);
+  EXPECT_LT(std::abs(plan.sweep_deg), options.sequence.min_sweep_deg);
+  EXPECT_EQ(plan.abrupt_object, 1);
+  EXPECT_GE(plan.min_visib_fract, options.min_visible_fraction);
+  // The same seed, the same plan.
+  const SampleSequencePlan again = PlanSampleSequence(options, objects);
+  for (size_t i = 0; i < plan.cam_from_world.size(); ++i)
+    EXPECT_TRUE(plan.cam_from_world[i].isApprox(again.cam_from_world[i], 0.0));
+}
+
+TEST(PlanSampleSequence, ALongSequenceSweepsFortyToSeventyDegrees) {
+  SampleOptions options = ShortSequenceOptions();
+  options.num_frames = 90;
+  options.sequence.abrupt_frame = 45;
+  options.num_objects = 1;  // the jump falls back to the last (only) object
+  const SampleSequencePlan plan = PlanSampleSequence(options, MakeSampleObjects(1, 1));
+  EXPECT_GE(std::abs(plan.sweep_deg), options.sequence.min_sweep_deg);
+  EXPECT_LE(std::abs(plan.sweep_deg), options.sequence.max_sweep_deg);
+  EXPECT_LE(plan.max_step_m * options.sequence.fps, options.sequence.max_camera_speed_m_s);
+  EXPECT_LE(plan.max_step_deg * options.sequence.fps, options.sequence.max_rotation_deg_s);
+  EXPECT_EQ(plan.abrupt_object, 0);
+  EXPECT_GE(plan.jump_m, options.sequence.min_jump_m);
+  EXPECT_LE(plan.jump_m, options.sequence.max_jump_m);
+  EXPECT_EQ(plan.WorldFromObject(44, 0).matrix(), plan.world_from_object[0].matrix());
+  EXPECT_EQ(plan.WorldFromObject(45, 0).matrix(), plan.jumped_world_from_object.matrix());
+}
+
+TEST(SampleSequenceOptions, CheckNamesTheBadField) {
+  EXPECT_EQ(SampleSequenceOptions{}.Check(), "");
+  SampleOptions options = ShortSequenceOptions();
+  EXPECT_EQ(options.Check(), "");
+  options.sequence.abrupt_frame = 12;  // past the last image
+  EXPECT_THAT(options.Check(), HasSubstr("sequence.abrupt_frame"));
+  options.sequence.abrupt_frame = 0;  // a jump needs an image before it
+  EXPECT_THAT(options.Check(), HasSubstr("sequence.abrupt_frame"));
+  options = ShortSequenceOptions();
+  options.sequence.fps = 0.0;
+  EXPECT_THAT(options.Check(), HasSubstr("sequence.fps"));
+  options = ShortSequenceOptions();
+  options.sequence.min_jump_m = 0.2;
+  EXPECT_THAT(options.Check(), HasSubstr("min_jump_m"));
+  options = ShortSequenceOptions();
+  options.sequence.max_sweep_deg = 200.0;
+  EXPECT_THAT(options.Check(), HasSubstr("max_sweep_deg"));
+}
+
+// The tool in sequence mode: 12 images at the default 30 fps, the jump at the default
+// image 6, no caches.
+class MakeSampleSequenceTool : public ::testing::Test {
+ protected:
+  static constexpr int kFrames = 12;
+  static constexpr double kFps = 30.0;
+  static std::string Command(const std::string& out) {
+    return kMakeSample + " --out " + out + " --sequence --frames 12 --seed 2 --no-caches";
+  }
+  static void SetUpTestSuite() {
+    ASSERT_TRUE(fs::exists(kMakeSample)) << kMakeSample << " is not built";
+    root_ = new std::string(test::ScratchDirs::Make("make_sample_sequence") + "/sample");
+    const test::CommandResult run = test::RunCommand(Command(*root_));
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    output_ = new std::string(run.output);
+  }
+  static void TearDownTestSuite() {
+    delete root_;
+    delete output_;
+  }
+  static std::string* root_;
+  static std::string* output_;
+};
+std::string* MakeSampleSequenceTool::root_ = nullptr;
+std::string* MakeSampleSequenceTool::output_ = nullptr;
+
+TEST_F(MakeSampleSequenceTool, ManifestRecordsTheSequence) {
+  EXPECT_THAT(*output_, HasSubstr("image 12/12"));
+  EXPECT_THAT(*output_, HasSubstr("obj_000002 jumps at image 6"));
+  const Json manifest = ReadJson(*root_ + "/sample.json");
+  EXPECT_EQ(manifest["sequence"], true);
+  EXPECT_EQ(manifest["abrupt_frame"], 6);
+  EXPECT_EQ(manifest["abrupt_obj_id"], 2);
+  EXPECT_EQ(manifest["frames"], kFrames);
+  EXPECT_EQ(manifest["options"]["sequence"], true);
+  EXPECT_EQ(manifest["options"]["abrupt_frame"], 6);
+  EXPECT_EQ(manifest["options"]["fps"], kFps);
+  EXPECT_EQ(manifest["options"]["frames"], kFrames);
+}
+
+TEST_F(MakeSampleSequenceTool, CameraMovesSmoothlyWithoutJumps) {
+  Eigen::Isometry3d previous = CamFromWorld(*root_, 0).inverse();
+  for (int im_id = 1; im_id < kFrames; ++im_id) {
+    SCOPED_TRACE("image " + std::to_string(im_id));
+    const Eigen::Isometry3d world_from_cam = CamFromWorld(*root_, im_id).inverse();
+    const double step_m = TranslationError(previous, world_from_cam);
+    const double step_deg = RotationErrorDeg(previous.linear(), world_from_cam.linear());
+    // It moves, at most 0.3 m/s and 30 deg/s (and so far below 2 cm and 2 degrees).
+    EXPECT_GT(step_m, 0.0005);
+    EXPECT_LE(step_m, 0.3 / kFps + 1e-9);
+    EXPECT_LE(step_deg, 30.0 / kFps + 1e-9);
+    previous = world_from_cam;
+  }
+}
+
+TEST_F(MakeSampleSequenceTool, ObjectsStayExceptOneJumpAtTheAbruptFrame) {
+  const std::vector<std::vector<Eigen::Isometry3d>> poses = WorldFromObjects(*root_);
+  ASSERT_EQ(poses.size(), static_cast<size_t>(kFrames));
+  const Json manifest = ReadJson(*root_ + "/sample.json");
+  int jumps = 0;
+  for (int im_id = 1; im_id < kFrames; ++im_id) {
+    for (size_t k = 0; k < poses[im_id].size(); ++k) {
+      SCOPED_TRACE("image " + std::to_string(im_id) + ", object " + std::to_string(k + 1));
+      const Eigen::Isometry3d& before = poses[im_id - 1][k];
+      const Eigen::Isometry3d& after = poses[im_id][k];
+      const double moved_m = TranslationError(before, after);
+      const double turned_deg = RotationErrorDeg(before.linear(), after.linear());
+      if (im_id != 6 || k != 1) {
+        // Constant up to the 17 digits of the JSON files.
+        EXPECT_LT(moved_m, 1e-9);
+        EXPECT_LT(turned_deg, 1e-5);
+        continue;
+      }
+      ++jumps;
+      EXPECT_GE(moved_m, 0.06);
+      EXPECT_LE(moved_m, 0.12);
+      EXPECT_NEAR(moved_m * 1000.0, manifest["abrupt_translation_mm"].get<double>(), 1e-6);
+      // Still on the table: the move is horizontal, the turn about the table normal.
+      EXPECT_NEAR(after.translation().z(), before.translation().z(), 1e-9);
+      double turn_deg = 0.0, tilt_deg = 0.0;
+      TurnAboutTheNormal(after.linear() * before.linear().transpose(), &turn_deg, &tilt_deg);
+      EXPECT_GE(turn_deg, 60.0);
+      EXPECT_LE(turn_deg, 120.0);
+      EXPECT_LT(tilt_deg, 1e-4);
+      EXPECT_NEAR(turn_deg, std::abs(manifest["abrupt_rotation_deg"].get<double>()), 1e-6);
+    }
+  }
+  EXPECT_EQ(jumps, 1);
+}
+
+TEST_F(MakeSampleSequenceTool, EveryObjectVisibleAndInsideInEveryImage) {
+  const SampleOptions rules;
+  const BopScene scene = LoadBopScene(*root_, 1);
+  ASSERT_EQ(scene.frames.size(), static_cast<size_t>(kFrames));
+  double least_visible = 1.0;
+  for (const BopFrame& frame : scene.frames) {
+    ASSERT_EQ(frame.gt.size(), 3u);
+    for (size_t k = 0; k < frame.gt.size(); ++k) {
+      SCOPED_TRACE("image " + std::to_string(frame.im_id) + ", object " + std::to_string(k + 1));
+      const BopGtInstance& gt = frame.gt[k];
+      ASSERT_TRUE(gt.info.has_value());
+      EXPECT_GE(gt.info->visib_fract, rules.min_visible_fraction);
+      least_visible = std::min(least_visible, gt.info->visib_fract);
+      const cv::Rect box = cv::boundingRect(LoadBopMask(scene, frame.im_id, static_cast<int>(k)));
+      const int m = rules.border_margin_px;
+      EXPECT_GE(box.x, m);
+      EXPECT_GE(box.y, m);
+      EXPECT_LE(box.x + box.width, frame.camera.width - m);
+      EXPECT_LE(box.y + box.height, frame.camera.height - m);
+    }
+  }
+  // Mutual occlusion in some image.
+  EXPECT_LT(least_visible, rules.occlusion_below_fraction);
+}
+
+TEST_F(MakeSampleSequenceTool, LogHasOneEventPerImageOneFrameApart) {
+  FrameLogReader reader(*root_ + "/sample.lcmlog", "G6D_RGBD");
+  FrameEvent event;
+  std::vector<int64_t> utimes;
+  while (reader.Next(&event)) {
+    EXPECT_EQ(event.frame.image_id, static_cast<int>(utimes.size()));
+    EXPECT_EQ(event.timestamp_us, event.frame.utime);
+    utimes.push_back(event.frame.utime);
+  }
+  ASSERT_EQ(utimes.size(), static_cast<size_t>(kFrames));
+  for (size_t i = 1; i < utimes.size(); ++i)
+    EXPECT_NEAR(static_cast<double>(utimes[i] - utimes[i - 1]), 1e6 / kFps, 1.0);
+  EXPECT_TRUE(reader.stats().Problems().empty());
+}
+
+TEST_F(MakeSampleSequenceTool, SameSeedGivesTheSameFilesAndReuseKeepsThem) {
+  // Same folder name: the log records it as the frames' source.
+  const std::string other = test::ScratchDirs::Make("make_sample_sequence_again") + "/sample";
+  ASSERT_EQ(test::RunCommand(Command(other)).exit_code, 0);
+  const std::map<std::string, uint64_t> a = HashTree(*root_), b = HashTree(other);
+  ASSERT_EQ(a.size(), b.size());
+  for (const auto& [file, hash] : a) {
+    if (file != "sample.json") {
+      EXPECT_EQ(hash, b.at(file)) << file;
+    }
+  }
+  EXPECT_EQ(ReadJson(*root_ + "/sample.json")["options"],
+            ReadJson(other + "/sample.json")["options"]);
+  // --reuse keeps the sequence, and redoes it as the classic sample (other options).
+  EXPECT_THAT(test::RunCommand(Command(other) + " --reuse").output, HasSubstr("up to date"));
+  const test::CommandResult classic = test::RunCommand(
+      kMakeSample + " --out " + other + " --frames 12 --fps 30 --seed 2 --no-caches --reuse");
+  EXPECT_THAT(classic.output, HasSubstr("g6d-make-sample: wrote"));
+  EXPECT_FALSE(ReadJson(other + "/sample.json").contains("sequence"));
+  EXPECT_NE(HashFile(other + "/test/000001/rgb/000001.png"),
+            HashFile(*root_ + "/test/000001/rgb/000001.png"));
+}
+
+TEST(MakeSampleToolOptions, AbruptFrameNeedsTheSequenceAndAnImageInside) {
+  ASSERT_TRUE(fs::exists(kMakeSample));
+  const std::string dir = test::ScratchDirs::Make("make_sample_bad_sequence");
+  const test::CommandResult alone =
+      test::RunCommand(kMakeSample + " --out " + dir + " --abrupt-frame 3 --no-caches");
+  EXPECT_NE(alone.exit_code, 0);
+  EXPECT_THAT(alone.output, HasSubstr("--abrupt-frame needs --sequence"));
+  const test::CommandResult outside = test::RunCommand(
+      kMakeSample + " --out " + dir + " --sequence --frames 4 --abrupt-frame 4 --no-caches");
+  EXPECT_NE(outside.exit_code, 0);
+  EXPECT_THAT(outside.output, HasSubstr("abrupt_frame"));
+}
+
 }  // namespace
 }  // namespace g6d

@@ -5,6 +5,15 @@
 //
 //   g6d-make-sample --out out/demo/sample [--frames 12] [--seed 1] [--objects 3]
 //       [--fps 10] [--views 324] [--threads 2] [--no-caches] [--no-log] [--reuse]
+//       [--sequence [--abrupt-frame N]]
+//
+// Every image has its own arrangement and camera. With --sequence (for testing object
+// tracking; --frames defaults to 90 and --fps to 30 there) one arrangement holds for the
+// whole sequence, the camera orbits the objects smoothly at --fps (an azimuth sweep of
+// 40-70 degrees with gentle changes of elevation and distance, at most 0.3 m/s and
+// 30 deg/s), and object 2 (the last when fewer) jumps once, at image --abrupt-frame
+// (default frames / 2, -1 = never), by 6-12 cm and 60-120 degrees about the table normal.
+// sample.json then records "sequence": true, "abrupt_frame" and "abrupt_obj_id".
 //
 // Layout of --out (BOP, plus the g6d parts):
 //   models/        obj_00000N.obj/.mtl/.png, models_info.json (`mesh`, `units` = "m")
@@ -62,16 +71,22 @@ struct ToolOptions {
 };
 
 Json OptionsJson(const ToolOptions& o) {
-  return {{"frames", o.sample.num_frames},
-          {"seed", o.sample.seed},
-          {"objects", o.sample.num_objects},
-          {"depth_noise_mm", o.sample.depth_noise_m * 1000.0},
-          {"min_visible", o.sample.min_visible_fraction},
-          {"views", o.views},
-          {"inplane", o.inplane},
-          {"fps", o.fps},
-          {"caches", o.caches},
-          {"log", o.log}};
+  Json options = {{"frames", o.sample.num_frames},
+                  {"seed", o.sample.seed},
+                  {"objects", o.sample.num_objects},
+                  {"depth_noise_mm", o.sample.depth_noise_m * 1000.0},
+                  {"min_visible", o.sample.min_visible_fraction},
+                  {"views", o.views},
+                  {"inplane", o.inplane},
+                  {"fps", o.fps},
+                  {"caches", o.caches},
+                  {"log", o.log}};
+  // Only in sequence mode, so that the classic sample's manifest stays as it was.
+  if (o.sample.sequence.enabled) {
+    options["sequence"] = true;
+    options["abrupt_frame"] = o.sample.sequence.abrupt_frame;
+  }
+  return options;
 }
 
 // The files a complete sample folder holds.
@@ -153,15 +168,27 @@ int main(int argc, char** argv) {
          "--out", out_text,
          "output folder (created; a sample in it is replaced, any other non-empty folder refused)")
       ->required();
-  app.add_option("--frames", o.sample.num_frames, "images in the sequence")
-      ->capture_default_str()
-      ->check(CLI::Range(1, 10000));
+  CLI::Option* frames_option =
+      app.add_option("--frames", o.sample.num_frames, "images in the sequence (--sequence: 90)")
+          ->capture_default_str()
+          ->check(CLI::Range(1, 10000));
   app.add_option("--seed", o.sample.seed, "seed of every random choice")->capture_default_str();
   app.add_option("--objects", o.sample.num_objects,
                  "objects: 1 box, 2 + cylinder, 3 + triangular prism")
       ->capture_default_str()
       ->check(CLI::Range(1, 3));
-  app.add_option("--fps", o.fps, "frame rate of the log timestamps, Hz")->capture_default_str();
+  CLI::Option* fps_option =
+      app.add_option(
+             "--fps", o.fps,
+             "frame rate of the log timestamps (and of the camera path), Hz (--sequence: 30)")
+          ->capture_default_str();
+  int abrupt_frame = -1;
+  bool sequence = false;
+  app.add_flag("--sequence", sequence,
+               "one arrangement, a smooth camera orbit and one object jumping once (tracking)");
+  CLI::Option* abrupt_option = app.add_option(
+      "--abrupt-frame", abrupt_frame,
+      "--sequence: image (0-based) at which object 2 jumps; default frames / 2, -1 = never");
   app.add_option("--views", o.views, "templates per object cache N_T (multiple of --inplane)")
       ->capture_default_str();
   app.add_option("--inplane", o.inplane, "in-plane rotations per viewing direction of the caches")
@@ -185,6 +212,20 @@ int main(int argc, char** argv) {
 
   try {
     const g6d::Stopwatch watch;
+    if (sequence) {
+      // A tracking sequence wants more and denser images than the classic sample.
+      constexpr int kSequenceFrames = 90;
+      constexpr double kSequenceFps = 30.0;
+      if (frames_option->count() == 0) o.sample.num_frames = kSequenceFrames;
+      if (fps_option->count() == 0) o.fps = kSequenceFps;
+      o.sample.sequence.enabled = true;
+      o.sample.sequence.fps = o.fps;
+      o.sample.sequence.abrupt_frame = abrupt_option->count() > 0 ? abrupt_frame
+                                       : o.sample.num_frames >= 2 ? o.sample.num_frames / 2
+                                                                  : -1;
+    } else if (abrupt_option->count() > 0) {
+      G6D_THROW("--abrupt-frame needs --sequence");
+    }
     if (o.inplane < 1 || o.views < 1 || o.views % o.inplane != 0) {
       G6D_THROW("--views " << o.views << " must be a positive multiple of --inplane " << o.inplane);
     }
@@ -274,20 +315,32 @@ int main(int argc, char** argv) {
                          {"diameter_mm", scene.diameters_m[k] * 1000.0},
                          {"mesh", "models/" + object.name + ".obj"}});
     }
-    const Json manifest = {{"generator", "g6d-make-sample"},
-                           {"format", kManifestFormat},
-                           {"generator_hash", generator_hash},
-                           {"options", OptionsJson(o)},
-                           {"objects", objects},
-                           {"frames", scene.frames_written},
-                           {"instances", scene.instances_written},
-                           {"occluded_instances", scene.occluded_instances},
-                           {"min_visib_fract", scene.min_visib_fract},
-                           {"mean_visib_fract", scene.mean_visib_fract},
-                           {"scene", "test/000001"},
-                           {"caches", o.caches ? Json(kCacheFolder) : Json(nullptr)},
-                           {"log", o.log ? Json(kLogName) : Json(nullptr)},
-                           {"channel", "G6D_RGBD"}};
+    Json manifest = {{"generator", "g6d-make-sample"},
+                     {"format", kManifestFormat},
+                     {"generator_hash", generator_hash},
+                     {"options", OptionsJson(o)},
+                     {"objects", objects},
+                     {"frames", scene.frames_written},
+                     {"instances", scene.instances_written},
+                     {"occluded_instances", scene.occluded_instances},
+                     {"min_visib_fract", scene.min_visib_fract},
+                     {"mean_visib_fract", scene.mean_visib_fract},
+                     {"scene", "test/000001"},
+                     {"caches", o.caches ? Json(kCacheFolder) : Json(nullptr)},
+                     {"log", o.log ? Json(kLogName) : Json(nullptr)},
+                     {"channel", "G6D_RGBD"}};
+    const g6d::SampleSequencePlan& plan = scene.sequence;
+    const bool jumps = plan.abrupt_object >= 0;
+    if (o.sample.sequence.enabled) {
+      manifest["sequence"] = true;
+      manifest["abrupt_frame"] = plan.abrupt_frame;
+      manifest["abrupt_obj_id"] = jumps ? Json(scene.objects[plan.abrupt_object].obj_id) : Json();
+      manifest["abrupt_translation_mm"] = plan.jump_m * 1000.0;
+      manifest["abrupt_rotation_deg"] = plan.jump_turn_deg;
+      manifest["camera_sweep_deg"] = plan.sweep_deg;
+      manifest["max_camera_step_mm"] = plan.max_step_m * 1000.0;
+      manifest["max_camera_step_deg"] = plan.max_step_deg;
+    }
     WriteText(out / kManifestName, manifest.dump(1) + "\n");
 
     std::printf("g6d-make-sample: wrote %s (seed %llu) in %.1f s\n", out_text.c_str(),
@@ -302,6 +355,18 @@ int main(int argc, char** argv) {
         "visible fraction min %.2f, mean %.2f (%.1f s)\n",
         scene.frames_written, scene.instances_written, scene.occluded_instances,
         scene.min_visib_fract, scene.mean_visib_fract, scene.seconds);
+    if (o.sample.sequence.enabled) {
+      std::printf(
+          "  sequence one arrangement, camera sweep %.1f deg at %.0f fps, steps up to %.1f mm and "
+          "%.2f deg per image",
+          plan.sweep_deg, o.fps, plan.max_step_m * 1000.0, plan.max_step_deg);
+      if (jumps) {
+        std::printf("; %s jumps at image %d by %.1f mm and %.1f deg",
+                    scene.objects[plan.abrupt_object].name.c_str(), plan.abrupt_frame,
+                    plan.jump_m * 1000.0, plan.jump_turn_deg);
+      }
+      std::printf("\n");
+    }
     if (o.caches) {
       std::printf("  caches   %d in %s/, %d templates each (%.1f s)\n", caches_written,
                   kCacheFolder, o.views, caches_seconds);

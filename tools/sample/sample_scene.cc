@@ -584,90 +584,88 @@ cv::Vec3b CoveredColour(const GlImage& image, int x, int y, const cv::Vec3b& fal
   return fallback;
 }
 
-SampleFrame RenderFrameWith(const SampleOptions& options, const std::vector<SampleObject>& objects,
-                            const Mesh& table, uint64_t frame_seed, SampleRenderers* renderers) {
-  cv::RNG rng(frame_seed);
+// Places `objects` at `world_from_object` before the camera at frame->cam_from_world and
+// fills frame->instances (poses; counts, boxes and visibility among the objects alone) and
+// frame->masks. False as soon as an object is not wholly inside the image with the border
+// margin; the frame is then incomplete.
+bool MeasureArrangement(const SampleOptions& options, const std::vector<SampleObject>& objects,
+                        const std::vector<Eigen::Isometry3d>& world_from_object,
+                        SampleFrame* frame) {
+  const Camera& camera = options.camera;
+  const int n = static_cast<int>(objects.size());
+  frame->instances.clear();
+  frame->masks.clear();
+  std::vector<const Mesh*> meshes;
+  std::vector<Eigen::Isometry3d> poses;
+  RasterImage raster;
+  for (int k = 0; k < n; ++k) {
+    SampleInstance instance;
+    instance.obj_id = objects[k].obj_id;
+    instance.cam_from_object = frame->cam_from_world * world_from_object[k];
+    meshes.push_back(&objects[k].mesh);
+    poses.push_back(instance.cam_from_object);
+    Rasterize(objects[k].mesh, camera, instance.cam_from_object, DepthOnlyRaster(), &raster);
+    const cv::Mat mask = raster.Mask();
+    const cv::Rect box = cv::boundingRect(mask);
+    const int m = options.border_margin_px;
+    const bool inside = raster.pixel_count > 0 && box.x >= m && box.y >= m &&
+                        box.x + box.width <= camera.width - m &&
+                        box.y + box.height <= camera.height - m;
+    frame->instances.push_back(instance);
+    frame->masks.push_back(mask);
+    if (!inside) return false;
+  }
+  cv::Mat nearest, depth;
+  ComposeSampleDepth(meshes, poses, nullptr, Eigen::Isometry3d::Identity(), camera, &nearest,
+                     &depth);
+  MeasureInstances(frame->masks, nearest, &frame->instances);
+  return true;
+}
+
+double LeastVisible(const std::vector<SampleInstance>& instances) {
+  double least_visible = 1.0;
+  for (const SampleInstance& instance : instances)
+    least_visible = std::min(least_visible, instance.visib_fract);
+  return least_visible;
+}
+
+// Depth, visible masks and colour of a frame whose camera, instance poses and full masks
+// are set; `rng` draws the noise.
+void ShadeFrame(const SampleOptions& options, const std::vector<SampleObject>& objects,
+                const Mesh& table, SampleRenderers* renderers, cv::RNG* rng, SampleFrame* frame) {
   const Camera& camera = options.camera;
   const int n = static_cast<int>(objects.size());
   std::vector<const Mesh*> meshes;
   for (const SampleObject& object : objects) meshes.push_back(&object.mesh);
-
-  // 1. Arrangements until one is valid and shows mutual occlusion.
-  SampleFrame best;
-  bool have_valid = false;
-  RasterImage raster;
-  int tries = 0;
-  for (; tries < options.max_tries; ++tries) {
-    std::vector<Placement> placements;
-    if (!DrawPlacements(options, objects, &rng, &placements)) continue;
-    SampleFrame frame;
-    frame.cam_from_world = DrawCamera(options, placements, &rng);
-    bool inside = true;
-    std::vector<Eigen::Isometry3d> poses;
-    for (int k = 0; k < n && inside; ++k) {
-      SampleInstance instance;
-      instance.obj_id = objects[k].obj_id;
-      instance.cam_from_object = frame.cam_from_world * placements[k].world_from_object;
-      poses.push_back(instance.cam_from_object);
-      Rasterize(objects[k].mesh, camera, instance.cam_from_object, DepthOnlyRaster(), &raster);
-      const cv::Mat mask = raster.Mask();
-      const cv::Rect box = cv::boundingRect(mask);
-      const int m = options.border_margin_px;
-      inside = raster.pixel_count > 0 && box.x >= m && box.y >= m &&
-               box.x + box.width <= camera.width - m && box.y + box.height <= camera.height - m;
-      frame.instances.push_back(instance);
-      frame.masks.push_back(mask);
-    }
-    if (!inside) continue;
-    cv::Mat nearest, depth;
-    ComposeSampleDepth(meshes, poses, nullptr, Eigen::Isometry3d::Identity(), camera, &nearest,
-                       &depth);
-    MeasureInstances(frame.masks, nearest, &frame.instances);
-    double least_visible = 1.0;
-    for (const SampleInstance& instance : frame.instances)
-      least_visible = std::min(least_visible, instance.visib_fract);
-    if (least_visible < options.min_visible_fraction) continue;
-    if (!have_valid || least_visible < options.occlusion_below_fraction) {
-      best = std::move(frame);
-      have_valid = true;
-    }
-    if (least_visible < options.occlusion_below_fraction) break;
-  }
-  if (!have_valid) {
-    G6D_THROW("no valid arrangement of "
-              << n << " objects in " << options.max_tries
-              << " tries (every object inside the image and at least "
-              << options.min_visible_fraction
-              << " visible): relax min_visible_fraction or the camera distances");
-  }
-  SampleFrame frame = std::move(best);
-  frame.tries = std::min(tries + 1, options.max_tries);
   std::vector<Eigen::Isometry3d> poses;
-  for (const SampleInstance& instance : frame.instances) poses.push_back(instance.cam_from_object);
+  for (const SampleInstance& instance : frame->instances) poses.push_back(instance.cam_from_object);
 
-  // 2. Depth and visible masks: objects and table by z-buffer, at the camera's resolution.
+  // 1. Depth and visible masks: objects and table by z-buffer, at the camera's resolution.
   cv::Mat nearest;
-  ComposeSampleDepth(meshes, poses, &table, frame.cam_from_world, camera, &nearest, &frame.depth_m);
-  MeasureInstances(frame.masks, nearest, &frame.instances);
-  for (int k = 0; k < n; ++k) frame.masks_visib.push_back(nearest == k);
+  ComposeSampleDepth(meshes, poses, &table, frame->cam_from_world, camera, &nearest,
+                     &frame->depth_m);
+  MeasureInstances(frame->masks, nearest, &frame->instances);
+  frame->masks_visib.clear();
+  for (int k = 0; k < n; ++k) frame->masks_visib.push_back(nearest == k);
   const double range_m = 65535.0 * options.depth_scale_mm / 1000.0;
-  for (int y = 0; y < frame.depth_m.rows; ++y) {
-    float* row = frame.depth_m.ptr<float>(y);
-    for (int x = 0; x < frame.depth_m.cols; ++x) {
+  for (int y = 0; y < frame->depth_m.rows; ++y) {
+    float* row = frame->depth_m.ptr<float>(y);
+    for (int x = 0; x < frame->depth_m.cols; ++x) {
       if (row[x] <= 0.0f) continue;
-      row[x] += static_cast<float>(rng.gaussian(options.depth_noise_m));
+      row[x] += static_cast<float>(rng->gaussian(options.depth_noise_m));
       if (row[x] <= 0.0f || row[x] >= range_m) row[x] = 0.0f;  // out of the sensor's range
     }
   }
 
-  // 3. Colour: OSMesa renders composed with the same z-buffer at `supersampling` times the
+  // 2. Colour: OSMesa renders composed with the same z-buffer at `supersampling` times the
   //    resolution, area-downsampled, plus noise.
   const Camera fine = camera.Scaled(options.supersampling);
   cv::Mat fine_nearest, fine_depth;
-  ComposeSampleDepth(meshes, poses, &table, frame.cam_from_world, fine, &fine_nearest, &fine_depth);
+  ComposeSampleDepth(meshes, poses, &table, frame->cam_from_world, fine, &fine_nearest,
+                     &fine_depth);
   std::vector<GlImage> images;
   for (int k = 0; k < n; ++k) images.push_back(renderers->objects[k]->Render(fine, poses[k]));
-  images.push_back(renderers->table->Render(fine, frame.cam_from_world));
+  images.push_back(renderers->table->Render(fine, frame->cam_from_world));
   std::vector<cv::Vec3b> mean_colours;
   for (const GlImage& image : images) {
     const cv::Scalar mean = cv::mean(image.rgb, image.mask);
@@ -689,13 +687,51 @@ SampleFrame RenderFrameWith(const SampleOptions& options, const std::vector<Samp
       }
     }
   }
-  cv::resize(fine_rgb, frame.rgb, cv::Size(camera.width, camera.height), 0, 0, cv::INTER_AREA);
-  cv::Mat noise(frame.rgb.size(), CV_32FC3);
-  rng.fill(noise, cv::RNG::NORMAL, 0.0, options.color_noise);
+  cv::resize(fine_rgb, frame->rgb, cv::Size(camera.width, camera.height), 0, 0, cv::INTER_AREA);
+  cv::Mat noise(frame->rgb.size(), CV_32FC3);
+  rng->fill(noise, cv::RNG::NORMAL, 0.0, options.color_noise);
   cv::Mat noisy;
-  frame.rgb.convertTo(noisy, CV_32FC3);
+  frame->rgb.convertTo(noisy, CV_32FC3);
   noisy += noise;
-  noisy.convertTo(frame.rgb, CV_8UC3);  // saturating
+  noisy.convertTo(frame->rgb, CV_8UC3);  // saturating
+}
+
+SampleFrame RenderFrameWith(const SampleOptions& options, const std::vector<SampleObject>& objects,
+                            const Mesh& table, uint64_t frame_seed, SampleRenderers* renderers) {
+  cv::RNG rng(frame_seed);
+  const int n = static_cast<int>(objects.size());
+
+  // Arrangements until one is valid and shows mutual occlusion.
+  SampleFrame best;
+  bool have_valid = false;
+  int tries = 0;
+  for (; tries < options.max_tries; ++tries) {
+    std::vector<Placement> placements;
+    if (!DrawPlacements(options, objects, &rng, &placements)) continue;
+    SampleFrame frame;
+    frame.cam_from_world = DrawCamera(options, placements, &rng);
+    std::vector<Eigen::Isometry3d> world_from_object;
+    for (const Placement& placement : placements)
+      world_from_object.push_back(placement.world_from_object);
+    if (!MeasureArrangement(options, objects, world_from_object, &frame)) continue;
+    const double least_visible = LeastVisible(frame.instances);
+    if (least_visible < options.min_visible_fraction) continue;
+    if (!have_valid || least_visible < options.occlusion_below_fraction) {
+      best = std::move(frame);
+      have_valid = true;
+    }
+    if (least_visible < options.occlusion_below_fraction) break;
+  }
+  if (!have_valid) {
+    G6D_THROW("no valid arrangement of "
+              << n << " objects in " << options.max_tries
+              << " tries (every object inside the image and at least "
+              << options.min_visible_fraction
+              << " visible): relax min_visible_fraction or the camera distances");
+  }
+  SampleFrame frame = std::move(best);
+  frame.tries = std::min(tries + 1, options.max_tries);
+  ShadeFrame(options, objects, table, renderers, &rng, &frame);
   return frame;
 }
 
@@ -744,12 +780,251 @@ Json TranslationMmJson(const Eigen::Vector3d& t_m) {
 uint64_t DerivedSeed(uint64_t seed, uint64_t part) {
   return Fnv1a64(&part, sizeof(part), Fnv1a64(&seed, sizeof(seed)));
 }
-constexpr uint64_t kObjectsPart = 1, kTablePart = 2, kFramePartBase = 1000;
+constexpr uint64_t kObjectsPart = 1, kTablePart = 2, kSequencePart = 3, kFramePartBase = 1000;
+
+// ---------------------------------------------------------------------------------------
+// Sequences.
+
+// The camera path of a sequence before any slow-down: at s in [0, 1] the camera looks at
+// target + (s - 1/2) drift from azimuth azimuth_mid + (s - 1/2) sweep, elevation
+// elevation_mid + elevation_amplitude sin(2 pi s + elevation_phase) and distance likewise.
+struct CameraPath {
+  Eigen::Vector3d target = Eigen::Vector3d::Zero();  // metres, world
+  Eigen::Vector3d drift = Eigen::Vector3d::Zero();   // metres, horizontal
+  double azimuth_mid = 0.0, sweep = 0.0;             // radians
+  double elevation_mid = 0.0, elevation_amplitude = 0.0, elevation_phase = 0.0;  // radians
+  double distance_mid = 0.0, distance_amplitude = 0.0, distance_phase = 0.0;     // metres
+};
+
+// A value in [low, high] and its amplitude in [min_amplitude, max_amplitude] such that
+// value +- amplitude stays in [low, high].
+void DrawWobble(double low, double high, double min_amplitude, double max_amplitude, cv::RNG* rng,
+                double* mid, double* amplitude) {
+  *amplitude = std::min(Uniform(rng, min_amplitude, max_amplitude), (high - low) / 2);
+  *mid = Uniform(rng, low + *amplitude, high - *amplitude);
+}
+
+CameraPath DrawCameraPath(const SampleOptions& options, const std::vector<Placement>& placements,
+                          cv::RNG* rng) {
+  const SampleSequenceOptions& sequence = options.sequence;
+  CameraPath path;
+  for (const Placement& p : placements) path.target += p.world_from_object.translation();
+  path.target /= static_cast<double>(placements.size());
+  const Eigen::Vector3d jitter(Uniform(rng, -1, 1), Uniform(rng, -1, 1), Uniform(rng, -1, 1));
+  path.target += options.look_at_jitter_m * jitter;
+  const double drift_angle = Uniform(rng, 0, 2 * M_PI);
+  path.drift =
+      sequence.look_at_drift_m * Eigen::Vector3d(std::cos(drift_angle), std::sin(drift_angle), 0);
+  path.azimuth_mid = Uniform(rng, 0, 2 * M_PI);
+  const double direction = rng->uniform(0, 2) == 0 ? 1.0 : -1.0;
+  path.sweep =
+      direction * Uniform(rng, sequence.min_sweep_deg, sequence.max_sweep_deg) * M_PI / 180.0;
+  constexpr double kRadiansPerDegree = M_PI / 180.0;
+  DrawWobble(options.min_elevation_deg * kRadiansPerDegree,
+             options.max_elevation_deg * kRadiansPerDegree,
+             sequence.min_elevation_wobble_deg * kRadiansPerDegree,
+             sequence.max_elevation_wobble_deg * kRadiansPerDegree, rng, &path.elevation_mid,
+             &path.elevation_amplitude);
+  path.elevation_phase = Uniform(rng, 0, 2 * M_PI);
+  DrawWobble(options.min_distance_m, options.max_distance_m, sequence.min_distance_wobble_m,
+             sequence.max_distance_wobble_m, rng, &path.distance_mid, &path.distance_amplitude);
+  path.distance_phase = Uniform(rng, 0, 2 * M_PI);
+  return path;
+}
+
+// cam_from_world at s in [0, 1] of `path` with every motion scaled by `scale` in [0, 1]
+// (which keeps elevation and distance inside their ranges).
+Eigen::Isometry3d CameraOnPath(const CameraPath& path, double scale, double s) {
+  const double centred = s - 0.5;
+  const Eigen::Vector3d target = path.target + scale * centred * path.drift;
+  const double azimuth = path.azimuth_mid + scale * centred * path.sweep;
+  const double elevation = path.elevation_mid + scale * path.elevation_amplitude *
+                                                    std::sin(2 * M_PI * s + path.elevation_phase);
+  const double distance = path.distance_mid + scale * path.distance_amplitude *
+                                                  std::sin(2 * M_PI * s + path.distance_phase);
+  const Eigen::Vector3d eye =
+      target + distance * Eigen::Vector3d(std::cos(elevation) * std::cos(azimuth),
+                                          std::cos(elevation) * std::sin(azimuth),
+                                          std::sin(elevation));
+  return LookAt(eye, target, Eigen::Vector3d::UnitZ());
+}
+
+// Largest camera centre move (metres) and rotation (degrees) between consecutive poses.
+void LargestSteps(const std::vector<Eigen::Isometry3d>& cam_from_world, double* step_m,
+                  double* step_deg) {
+  *step_m = 0.0;
+  *step_deg = 0.0;
+  for (size_t i = 1; i < cam_from_world.size(); ++i) {
+    const Eigen::Isometry3d a = cam_from_world[i - 1].inverse(), b = cam_from_world[i].inverse();
+    *step_m = std::max(*step_m, (a.translation() - b.translation()).norm());
+    *step_deg = std::max(*step_deg, RotationErrorDeg(a.linear(), b.linear()));
+  }
+}
+
+// The poses of `path` at the images of the sequence, slowed down (every motion scaled
+// alike) until the camera keeps to the speed and rotation-rate bounds. Returns the scale.
+double SampleCameraPath(const SampleOptions& options, const CameraPath& path,
+                        std::vector<Eigen::Isometry3d>* cam_from_world) {
+  const SampleSequenceOptions& sequence = options.sequence;
+  const int frames = options.num_frames;
+  // A bound per image step: the motion between images at `fps`.
+  const double bound_m = sequence.max_camera_speed_m_s / sequence.fps;
+  const double bound_deg = sequence.max_rotation_deg_s / sequence.fps;
+  double scale = 1.0;
+  // Steps shrink about linearly with the scale (and vanish at 0), so a few rounds settle.
+  constexpr int kMaxRounds = 60;
+  for (int round = 0; round < kMaxRounds; ++round) {
+    cam_from_world->clear();
+    for (int i = 0; i < frames; ++i) {
+      const double s = frames > 1 ? static_cast<double>(i) / (frames - 1) : 0.0;
+      cam_from_world->push_back(CameraOnPath(path, scale, s));
+    }
+    double step_m = 0.0, step_deg = 0.0;
+    LargestSteps(*cam_from_world, &step_m, &step_deg);
+    const double excess = std::max(step_m / bound_m, step_deg / bound_deg);
+    if (excess <= 1.0) return scale;
+    // 2% below the bound, so that the next round lands inside it.
+    scale *= 0.98 / excess;
+  }
+  G6D_THROW("the camera path cannot keep to " << sequence.max_camera_speed_m_s << " m/s and "
+                                              << sequence.max_rotation_deg_s << " deg/s at "
+                                              << sequence.fps << " fps");
+}
+
+// The new place of object k: moved by min_jump_m..max_jump_m in a random direction on the
+// table and turned by min_jump_turn_deg..max_jump_turn_deg either way about the vertical
+// through its centre, clear of the other footprints. False when no free spot was found.
+bool DrawJump(const SampleOptions& options, const std::vector<SampleObject>& objects,
+              const std::vector<Placement>& placements, int k, cv::RNG* rng, Placement* jumped,
+              double* jump_m, double* turn_deg) {
+  const SampleSequenceOptions& sequence = options.sequence;
+  constexpr int kSpotTries = 60;
+  const Eigen::Isometry3d& before = placements[k].world_from_object;
+  for (int attempt = 0; attempt < kSpotTries; ++attempt) {
+    const double direction = rng->uniform(0, 2) == 0 ? 1.0 : -1.0;
+    *turn_deg = direction * Uniform(rng, sequence.min_jump_turn_deg, sequence.max_jump_turn_deg);
+    *jump_m = Uniform(rng, sequence.min_jump_m, sequence.max_jump_m);
+    const double angle = Uniform(rng, 0, 2 * M_PI);
+    jumped->world_from_object = MakePose(
+        Eigen::AngleAxisd(*turn_deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
+            before.linear(),
+        before.translation() + *jump_m * Eigen::Vector3d(std::cos(angle), std::sin(angle), 0));
+    jumped->footprint =
+        Footprint(objects[k].mesh, jumped->world_from_object, options.footprint_margin_m);
+    bool free = true;
+    for (int j = 0; j < static_cast<int>(placements.size()) && free; ++j)
+      free = j == k || !FootprintsOverlap(jumped->footprint, placements[j].footprint);
+    if (free) return true;
+  }
+  return false;
+}
+
+// The images in the order a candidate is checked: those around the jump and the ends
+// first, then ever finer strides, so that an invalid candidate fails early.
+std::vector<int> CheckOrder(int frames, int abrupt_frame) {
+  std::vector<int> order;
+  std::vector<bool> taken(frames, false);
+  auto take = [&](int i) {
+    if (i >= 0 && i < frames && !taken[i]) {
+      taken[i] = true;
+      order.push_back(i);
+    }
+  };
+  take(abrupt_frame);
+  take(abrupt_frame - 1);
+  take(0);
+  take(frames - 1);
+  for (const int stride : {16, 4, 1}) {
+    for (int i = 0; i < frames; i += stride) take(i);
+  }
+  return order;
+}
 
 }  // namespace
 
 // ---------------------------------------------------------------------------------------
 // Public functions.
+
+Eigen::Isometry3d SampleSequencePlan::WorldFromObject(int im_id, int k) const {
+  if (k == abrupt_object && abrupt_frame >= 0 && im_id >= abrupt_frame)
+    return jumped_world_from_object;
+  return world_from_object[k];
+}
+
+SampleSequencePlan PlanSampleSequence(const SampleOptions& options,
+                                      const std::vector<SampleObject>& objects) {
+  if (const std::string bad = options.Check(); !bad.empty())
+    G6D_THROW("bad sample option: " << bad);
+  if (static_cast<int>(objects.size()) != options.num_objects)
+    G6D_THROW("PlanSampleSequence: " << objects.size() << " objects for num_objects "
+                                     << options.num_objects);
+  const SampleSequenceOptions& sequence = options.sequence;
+  const int n = static_cast<int>(objects.size());
+  const int frames = options.num_frames;
+  const int abrupt_object =
+      sequence.abrupt_frame >= 0 ? std::min(sequence.abrupt_object, n - 1) : -1;
+  const std::vector<int> order = CheckOrder(frames, sequence.abrupt_frame);
+  cv::RNG rng(DerivedSeed(options.seed, kSequencePart));
+
+  // A single object cannot be hidden by another.
+  const bool want_occlusion = n >= 2;
+  SampleSequencePlan best;
+  int valid_candidates = 0;
+  int tries = 0;
+  for (; tries < options.max_tries; ++tries) {
+    std::vector<Placement> placements;
+    if (!DrawPlacements(options, objects, &rng, &placements)) continue;
+    SampleSequencePlan plan;
+    plan.abrupt_frame = sequence.abrupt_frame;
+    plan.abrupt_object = abrupt_object;
+    for (const Placement& placement : placements)
+      plan.world_from_object.push_back(placement.world_from_object);
+    if (abrupt_object >= 0) {
+      Placement jumped;
+      if (!DrawJump(options, objects, placements, abrupt_object, &rng, &jumped, &plan.jump_m,
+                    &plan.jump_turn_deg)) {
+        continue;
+      }
+      plan.jumped_world_from_object = jumped.world_from_object;
+    }
+    const CameraPath path = DrawCameraPath(options, placements, &rng);
+    const double scale = SampleCameraPath(options, path, &plan.cam_from_world);
+    plan.sweep_deg = scale * path.sweep * 180.0 / M_PI;
+    LargestSteps(plan.cam_from_world, &plan.max_step_m, &plan.max_step_deg);
+
+    bool valid = true;
+    for (const int im_id : order) {
+      SampleFrame frame;
+      frame.cam_from_world = plan.cam_from_world[im_id];
+      std::vector<Eigen::Isometry3d> world_from_object;
+      for (int k = 0; k < n; ++k) world_from_object.push_back(plan.WorldFromObject(im_id, k));
+      const double least_visible = MeasureArrangement(options, objects, world_from_object, &frame)
+                                       ? LeastVisible(frame.instances)
+                                       : -1.0;
+      if (least_visible < options.min_visible_fraction) {
+        valid = false;
+        break;
+      }
+      plan.min_visib_fract = std::min(plan.min_visib_fract, least_visible);
+    }
+    if (!valid) continue;
+    plan.occluded = plan.min_visib_fract < options.occlusion_below_fraction;
+    if (valid_candidates == 0 || plan.occluded) best = std::move(plan);
+    ++valid_candidates;
+    if (best.occluded || !want_occlusion || valid_candidates >= sequence.max_valid_candidates)
+      break;
+  }
+  if (valid_candidates == 0) {
+    G6D_THROW("no valid sequence of "
+              << n << " objects in " << options.max_tries
+              << " tries (every object inside the image and at least "
+              << options.min_visible_fraction
+              << " visible in every image, also after the jump): relax min_visible_fraction, "
+                 "the camera distances or the jump");
+  }
+  best.tries = std::min(tries + 1, options.max_tries);
+  return best;
+}
 
 std::vector<SampleObject> MakeSampleObjects(int count, uint64_t seed, double texture_px_per_mm) {
   if (count < 1 || count > 3) G6D_THROW("the sample has 1 to 3 objects (got " << count << ")");
@@ -890,6 +1165,49 @@ std::string SampleOptions::Check() const {
     out << "texture_px_per_mm must be in (0, 20]";
   else if (!finite_positive(table_size_m) || table_cells < 1 || !finite_positive(table_tile_m)) {
     out << "table_size_m, table_cells and table_tile_m must be > 0";
+  } else if (const std::string bad = sequence.Check(); !bad.empty()) {
+    out << "sequence." << bad;
+  } else if (sequence.enabled && sequence.abrupt_frame != -1 &&
+             (sequence.abrupt_frame < 1 || sequence.abrupt_frame >= num_frames)) {
+    out << "sequence.abrupt_frame must be -1 or in 1..num_frames-1 = " << num_frames - 1 << " (got "
+        << sequence.abrupt_frame << ")";
+  }
+  return out.str();
+}
+
+std::string SampleSequenceOptions::Check() const {
+  std::ostringstream out;
+  // Each pair: 0 <= low <= high (and finite).
+  auto range = [](double low, double high) {
+    return std::isfinite(low) && std::isfinite(high) && low >= 0.0 && high >= low;
+  };
+  if (!(std::isfinite(fps) && fps > 0.0))
+    out << "fps must be finite and > 0 (got " << fps << ")";
+  else if (abrupt_frame < -1)
+    out << "abrupt_frame must be -1 (none) or an image index (got " << abrupt_frame << ")";
+  else if (abrupt_object < 0)
+    out << "abrupt_object must be >= 0 (got " << abrupt_object << ")";
+  else if (max_valid_candidates < 1)
+    out << "max_valid_candidates must be >= 1 (got " << max_valid_candidates << ")";
+  else if (!range(min_sweep_deg, max_sweep_deg) || max_sweep_deg > 180.0) {
+    out << "min_sweep_deg / max_sweep_deg must satisfy 0 <= min <= max <= 180 (got "
+        << min_sweep_deg << ", " << max_sweep_deg << ")";
+  } else if (!range(min_elevation_wobble_deg, max_elevation_wobble_deg)) {
+    out << "min_elevation_wobble_deg / max_elevation_wobble_deg must satisfy 0 <= min <= max";
+  } else if (!range(min_distance_wobble_m, max_distance_wobble_m)) {
+    out << "min_distance_wobble_m / max_distance_wobble_m must satisfy 0 <= min <= max";
+  } else if (!(look_at_drift_m >= 0.0 && std::isfinite(look_at_drift_m)))
+    out << "look_at_drift_m must be >= 0";
+  else if (!(max_camera_speed_m_s > 0.0 && std::isfinite(max_camera_speed_m_s)))
+    out << "max_camera_speed_m_s must be > 0";
+  else if (!(max_rotation_deg_s > 0.0 && std::isfinite(max_rotation_deg_s)))
+    out << "max_rotation_deg_s must be > 0";
+  else if (!range(min_jump_m, max_jump_m) || !(min_jump_m > 0.0)) {
+    out << "min_jump_m / max_jump_m must satisfy 0 < min <= max (got " << min_jump_m << ", "
+        << max_jump_m << ")";
+  } else if (!range(min_jump_turn_deg, max_jump_turn_deg) || max_jump_turn_deg > 180.0) {
+    out << "min_jump_turn_deg / max_jump_turn_deg must satisfy 0 <= min <= max <= 180 (got "
+        << min_jump_turn_deg << ", " << max_jump_turn_deg << ")";
   }
   return out.str();
 }
@@ -939,6 +1257,29 @@ SampleFrame RenderSampleFrame(const SampleOptions& options,
   SampleRenderers renderers(objects, table);
   return RenderFrameWith(options, objects, table, frame_seed, &renderers);
 }
+
+namespace {
+
+// Image `im_id` of a planned sequence; `frame_seed` draws its noise.
+SampleFrame RenderPlannedFrame(const SampleOptions& options,
+                               const std::vector<SampleObject>& objects, const Mesh& table,
+                               const SampleSequencePlan& plan, int im_id, uint64_t frame_seed,
+                               SampleRenderers* renderers) {
+  SampleFrame frame;
+  frame.cam_from_world = plan.cam_from_world[im_id];
+  std::vector<Eigen::Isometry3d> world_from_object;
+  for (int k = 0; k < static_cast<int>(objects.size()); ++k)
+    world_from_object.push_back(plan.WorldFromObject(im_id, k));
+  // PlanSampleSequence() checked this very view.
+  const bool inside = MeasureArrangement(options, objects, world_from_object, &frame);
+  G6D_CHECK(inside);
+  frame.tries = 1;
+  cv::RNG rng(frame_seed);
+  ShadeFrame(options, objects, table, renderers, &rng, &frame);
+  return frame;
+}
+
+}  // namespace
 
 SampleReport WriteSampleDataset(const SampleOptions& options, const std::string& root,
                                 const SampleProgressCallback& progress) {
@@ -994,16 +1335,37 @@ SampleReport WriteSampleDataset(const SampleOptions& options, const std::string&
                                              {"height", camera.height},
                                              {"width", camera.width}});
 
-  // 2. Images.
+  // 2. Images: each its own arrangement, or the planned sequence.
   const Mesh table = SampleTableFor(options);
   SampleRenderers renderers(report.objects, table);
+  const SampleSequenceOptions& sequence = options.sequence;
+  if (sequence.enabled) {
+    report.sequence = PlanSampleSequence(options, report.objects);
+    const SampleSequencePlan& plan = report.sequence;
+    char line[320];
+    std::snprintf(line, sizeof(line),
+                  "sequence: %d images at %.0f fps, camera sweeps %.1f deg, steps up to %.1f mm "
+                  "and %.2f deg per image, objects at least %.2f visible (%d candidate%s drawn)",
+                  options.num_frames, sequence.fps, plan.sweep_deg, plan.max_step_m * 1000.0,
+                  plan.max_step_deg, plan.min_visib_fract, plan.tries, plan.tries == 1 ? "" : "s");
+    say(line);
+    if (plan.abrupt_object >= 0) {
+      std::snprintf(line, sizeof(line),
+                    "sequence: %s jumps at image %d by %.1f mm and %.1f deg about the table normal",
+                    report.objects[plan.abrupt_object].name.c_str(), plan.abrupt_frame,
+                    plan.jump_m * 1000.0, plan.jump_turn_deg);
+      say(line);
+    }
+  }
   Json scene_gt = Json::object(), scene_camera = Json::object(), scene_gt_info = Json::object();
   Json targets = Json::array();
   double visib_sum = 0.0;
   for (int im_id = 0; im_id < options.num_frames; ++im_id) {
+    const uint64_t frame_seed = DerivedSeed(options.seed, kFramePartBase + im_id);
     const SampleFrame frame =
-        RenderFrameWith(options, report.objects, table,
-                        DerivedSeed(options.seed, kFramePartBase + im_id), &renderers);
+        sequence.enabled ? RenderPlannedFrame(options, report.objects, table, report.sequence,
+                                              im_id, frame_seed, &renderers)
+                         : RenderFrameWith(options, report.objects, table, frame_seed, &renderers);
     cv::Mat bgr;
     cv::cvtColor(frame.rgb, bgr, cv::COLOR_RGB2BGR);
     WriteImage(scene / "rgb" / ImageName(im_id), bgr);
@@ -1056,9 +1418,17 @@ SampleReport WriteSampleDataset(const SampleOptions& options, const std::string&
                          {"depth_scale", options.depth_scale_mm}};
     ++report.frames_written;
     char line[200];
-    std::snprintf(line, sizeof(line), "image %d/%d: visible fractions%s (%d arrangement%s drawn)",
-                  im_id + 1, options.num_frames, visib_text.c_str(), frame.tries,
-                  frame.tries == 1 ? "" : "s");
+    if (sequence.enabled) {
+      const SampleSequencePlan& plan = report.sequence;
+      std::snprintf(
+          line, sizeof(line), "image %d/%d: visible fractions%s%s%s", im_id + 1, options.num_frames,
+          visib_text.c_str(), im_id == plan.abrupt_frame ? ", jumped: " : "",
+          im_id == plan.abrupt_frame ? report.objects[plan.abrupt_object].name.c_str() : "");
+    } else {
+      std::snprintf(line, sizeof(line), "image %d/%d: visible fractions%s (%d arrangement%s drawn)",
+                    im_id + 1, options.num_frames, visib_text.c_str(), frame.tries,
+                    frame.tries == 1 ? "" : "s");
+    }
     say(line);
   }
   WriteJson(scene / "scene_gt.json", scene_gt);

@@ -10,7 +10,9 @@
 /// small cluster (footprints never overlap), seen by a camera 0.5-0.9 m away looking down
 /// at 40-65 degrees. Arrangements are redrawn until every object is inside the image and at
 /// least `min_visible_fraction` visible, and (when possible) one object is partly hidden by
-/// another, so the sequence has real mutual occlusion.
+/// another, so the sequence has real mutual occlusion. In sequence mode one arrangement
+/// holds for every image, the camera orbits it smoothly and one object jumps once
+/// (SampleSequenceOptions); the same rules hold in every image.
 ///
 /// Images. Masks and depth come from the exact CPU rasterizer (objects and table composed
 /// by z-buffer), so mask_visib holds exactly the pixels where an object is the nearest
@@ -77,6 +79,46 @@ Mesh MakeSampleTable(double size_m, int cells, double tile_m, uint64_t seed);
 /// written or when the mesh has no texture.
 void WriteTexturedObj(const Mesh& mesh, const std::string& obj_path);
 
+/// Sequence mode of the sample (g6d-make-sample --sequence), for testing object tracking:
+/// one arrangement for the whole sequence, a smooth camera orbit around the cluster at
+/// `fps`, and one object that jumps once to a new place on the table.
+///
+/// The camera path, with s = image / (frames - 1) in [0, 1]: azimuth sweeps linearly
+/// through `sweep` (drawn from [min_sweep_deg, max_sweep_deg], either direction), elevation
+/// and distance change by one sinusoidal period of the drawn amplitudes, and the look-at
+/// point drifts linearly by `look_at_drift_m`. When the sequence is so short that this
+/// would move the camera faster than `max_camera_speed_m_s` or turn it faster than
+/// `max_rotation_deg_s`, every amplitude (sweep included) is scaled down until it does not.
+struct SampleSequenceOptions {
+  bool enabled = false;  ///< false: every image a new arrangement and camera (the classic sample)
+  double fps = 30.0;     ///< frame rate of the camera path, Hz
+  /// Image (0-based) from which on the displaced object rests at its new place; -1 = none.
+  /// Must be in 1..frames-1 otherwise.
+  int abrupt_frame = -1;
+  /// Index (0-based, object order) of the object that jumps; the last object when there
+  /// are fewer.
+  int abrupt_object = 1;
+  double min_sweep_deg = 40.0;  ///< azimuth swept over the sequence, degrees
+  double max_sweep_deg = 70.0;
+  double min_elevation_wobble_deg = 2.0;  ///< amplitude of the elevation sinusoid, degrees
+  double max_elevation_wobble_deg = 6.0;
+  double min_distance_wobble_m = 0.02;  ///< amplitude of the distance sinusoid, metres
+  double max_distance_wobble_m = 0.06;
+  double look_at_drift_m = 0.02;      ///< the look-at point moves this far over the sequence
+  double max_camera_speed_m_s = 0.3;  ///< camera centre speed bound, metres per second
+  double max_rotation_deg_s = 30.0;   ///< camera rotation rate bound, degrees per second
+  double min_jump_m = 0.06;           ///< translation of the displaced object, metres
+  double max_jump_m = 0.12;
+  double min_jump_turn_deg = 60.0;  ///< its rotation about the table normal, degrees
+  double max_jump_turn_deg = 120.0;
+  /// Valid candidates checked at most while looking for one with mutual occlusion (each
+  /// costs a check of every image); then the first valid one is kept.
+  int max_valid_candidates = 20;
+
+  /// Empty when valid, else names the bad field.
+  std::string Check() const;
+};
+
 /// Options of the sample scene. Every field has a meaning in metres, degrees or pixels.
 struct SampleOptions {
   int num_objects = 3;  ///< objects in the scene (1..3), each present in every image
@@ -107,6 +149,9 @@ struct SampleOptions {
   double table_size_m = 3.0;       ///< side of the table square
   int table_cells = 60;            ///< table tessellation per side
   double table_tile_m = 0.6;       ///< period of the table texture
+  /// Sequence mode; when enabled, max_tries counts whole candidates (arrangement, camera
+  /// path and jump), each checked in every image.
+  SampleSequenceOptions sequence;
 
   /// Empty when valid, else names the bad field.
   std::string Check() const;
@@ -134,6 +179,38 @@ struct SampleFrame {
   int tries = 0;                          ///< arrangements drawn for this image
 };
 
+/// The geometry of a sequence (SampleSequenceOptions): where the objects rest and where
+/// the camera is in every image. World = table frame, metres.
+struct SampleSequencePlan {
+  std::vector<Eigen::Isometry3d> world_from_object;  ///< per object, before the jump
+  int abrupt_frame = -1;                             ///< as in the options; -1 = no jump
+  int abrupt_object = -1;                            ///< object index that jumps; -1 = none
+  /// The displaced object from abrupt_frame on.
+  Eigen::Isometry3d jumped_world_from_object = Eigen::Isometry3d::Identity();
+  double jump_m = 0.0;         ///< its translation, metres
+  double jump_turn_deg = 0.0;  ///< its rotation about the table normal, degrees (signed)
+  std::vector<Eigen::Isometry3d> cam_from_world;  ///< per image
+  double sweep_deg = 0.0;                         ///< azimuth swept, after any slow-down (signed)
+  double max_step_m = 0.0;       ///< largest camera centre move between consecutive images
+  double max_step_deg = 0.0;     ///< largest camera rotation between consecutive images
+  double min_visib_fract = 1.0;  ///< least visible object over the sequence (objects only)
+  bool occluded = false;         ///< some image has an object below occlusion_below_fraction
+  int tries = 0;                 ///< candidates drawn
+
+  /// world_from_object of object k in image `im_id`.
+  Eigen::Isometry3d WorldFromObject(int im_id, int k) const;
+};
+
+/// Draws the sequence for options.sequence (enabled or not) from options.seed: one
+/// arrangement of `objects` (as in every image of the classic sample), a camera path and
+/// the jump, redrawn until every object is inside the image with the border margin and at
+/// least min_visible_fraction visible in every image, preferring a candidate with mutual
+/// occlusion in some image (among at most sequence.max_valid_candidates valid ones; a
+/// single object takes the first valid one). Throws g6d::Error on bad options or when no valid
+/// candidate is found within options.max_tries.
+SampleSequencePlan PlanSampleSequence(const SampleOptions& options,
+                                      const std::vector<SampleObject>& objects);
+
 /// Progress callback: a human-readable line per step.
 using SampleProgressCallback = std::function<void(const std::string&)>;
 
@@ -149,6 +226,8 @@ struct SampleReport {
   double min_visib_fract = 1.0;
   double mean_visib_fract = 0.0;
   double seconds = 0.0;
+  /// Sequence mode only (options.sequence.enabled): the plan rendered.
+  SampleSequencePlan sequence;
 };
 
 /// The composed view of `meshes` at `cam_from_object` poses (and the table at
@@ -168,10 +247,12 @@ void ComposeSampleDepth(const std::vector<const Mesh*>& meshes,
 ///   the prints break every geometric symmetry),
 ///   test/000001/{rgb,depth,mask,mask_visib}/, scene_gt.json, scene_camera.json (also
 ///   cam_R_w2c / cam_t_w2c of the table frame), scene_gt_info.json.
-/// Images are 000000.png ... in sequence order. The meshes used for rendering are the
+/// Images are 000000.png ... in sequence order. With options.sequence enabled the images
+/// follow PlanSampleSequence() (one arrangement, a camera path, one jump); otherwise every
+/// image has its own arrangement and camera. The meshes used for rendering are the
 /// written files read back with LoadMesh(), i.e. exactly what every other tool sees.
 /// Throws g6d::Error on bad options, on a write failure (naming the file), or when no
-/// valid arrangement is found for an image within max_tries.
+/// valid arrangement (or sequence) is found within max_tries.
 SampleReport WriteSampleDataset(const SampleOptions& options, const std::string& root,
                                 const SampleProgressCallback& progress = nullptr);
 
