@@ -761,6 +761,8 @@ std::string TrackSolveOptions::Check() const {
   else if (max_source_points < 10) out << "TrackSolveOptions.max_source_points must be >= 10 (got " << max_source_points << ")";
   else if (max_observed_points < 10) out << "TrackSolveOptions.max_observed_points must be >= 10 (got " << max_observed_points << ")";
   else if (mhpo_rounds < 0) out << "TrackSolveOptions.mhpo_rounds must be >= 0 (got " << mhpo_rounds << ")";
+  else if (!(appearance_search_deg >= 0.0 && appearance_search_deg <= 180.0)) out << "TrackSolveOptions.appearance_search_deg must be in [0, 180] (got " << appearance_search_deg << ")";
+  else if (!(appearance_step_deg > 0.0)) out << "TrackSolveOptions.appearance_step_deg must be > 0 (got " << appearance_step_deg << ")";
   return out.str();
 }
 
@@ -842,6 +844,35 @@ PoseResult TrackPose(const Frame& frame, const Instance& instance, const Templat
       if (stages.mhpo.early_stopped) result.termination = Termination::kEarlyStopped;
     }
     stages.mhpo_ms = watch.ElapsedMs();
+
+    // A coloured surface of revolution: its turn about the axis, by appearance.
+    const MeshSymmetries& shape = bank.geometric_symmetries;
+    if (track_options.appearance_search_deg > 0.0 && shape.revolution && !bank.appearance.Empty() &&
+        options.appearance_tiebreak) {
+      watch.Restart();
+      RasterImage scratch;
+      const int steps = static_cast<int>(std::floor(track_options.appearance_search_deg / track_options.appearance_step_deg));
+      const Eigen::Isometry3d refined = result.cam_from_object;
+      for (int k = -steps; k <= steps; ++k) {
+        Eigen::Isometry3d turn = Eigen::Isometry3d::Identity();
+        turn.linear() = Eigen::AngleAxisd(k * track_options.appearance_step_deg * M_PI / 180.0, shape.axis).toRotationMatrix();
+        turn.translation() = shape.point - turn.linear() * shape.point;
+        const Eigen::Isometry3d pose = refined * turn;
+        const AppearanceScore appearance = ScoreAppearance(options.appearance, bank.appearance, bank.online_mesh, frame.camera,
+                                                           frame.rgb, observation.mask, pose, &scratch);
+        ++stages.appearance_compared;
+        if (!appearance.valid || (result.appearance_valid && appearance.agreement <= result.appearance_agreement)) continue;
+        result.appearance_valid = true;
+        result.appearance_agreement = appearance.agreement;
+        result.cam_from_object = pose;
+      }
+      if (!result.cam_from_object.isApprox(refined)) {
+        stages.appearance_changed = true;
+        result.details = ScorePose(observation.refine_grid, bank.online_mesh, result.cam_from_object, observation.z_m,
+                                   online_score, &scratch);
+      }
+      stages.finalists_ms = watch.ElapsedMs();
+    }
     result.score = result.details.s;
     result.confidence = ConfidenceFromScore(options, result.score, false);
     result.success = true;

@@ -257,6 +257,11 @@ struct TrackSolveOptions {
   int max_source_points = 300;    ///< rendered ICP source points at most
   int max_observed_points = 1200; ///< observed points (inside the mask) at most
   int mhpo_rounds = 2;            ///< MHPO re-rasterizations per start
+  /// A coloured surface of revolution (a printed can): depth and silhouette cannot see its
+  /// turn about the axis, so a tracked pose would drift along it. The turn is searched by
+  /// appearance agreement within +- this many degrees of the refined pose (0 = off) ...
+  double appearance_search_deg = 8.0;
+  double appearance_step_deg = 2.0;  ///< ... in steps of this many degrees
 
   std::string Check() const;
 };
@@ -265,7 +270,8 @@ struct TrackSolveOptions {
 /// constant-velocity prediction): trimmed ICP on depth, MHPO, the best state by S. The
 /// observation is prepared as EstimatePose prepares it, with `options`; the result has the
 /// same fields (T_A, S_A, details, confidence, truncated; no runner-up: only the starts'
-/// neighbourhood is searched). Never throws for bad data: bad input gives success = false,
+/// neighbourhood is searched; appearance only for a coloured surface of revolution, see
+/// TrackSolveOptions::appearance_search_deg). Never throws for bad data: bad input gives success = false,
 /// termination kBadInput. Starts fan out over `executor`.
 PoseResult TrackPose(const Frame& frame, const Instance& instance, const TemplateBank& bank,
                      const SolverOptions& options, const TrackSolveOptions& track_options,
