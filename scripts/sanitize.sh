@@ -24,14 +24,15 @@ esac
 # single-threaded or reaches threads only through these.
 TSAN_TESTS=(service_test service_process_test frame_codec_test mailbox_test service_options_test
   template_store_test executor_test template_bank_test pipeline_test lcm_loop_test
-  service_adapters_test)
+  service_adapters_test background_detector_test tracker_test)
 TSAN_TARGETS=("${TSAN_TESTS[@]}" g6d-service)
 
 # The ASan subset of the CI run (a cold build of every test under ASan took about 40 of CI's
 # 90 minutes on 2 cores): the message, image, cache and BOP parsers with their fuzz corpora,
 # the mesh, symmetry, appearance, rasterizer and solver stages, and the service end to end.
 ASAN_CI_TESTS=(cache_test frame_codec_test bop_test bop_csv_test mesh_test symmetry_test appearance_test
-  raster_test match_test pnp_test icp_test mhpo_test score_test pipeline_test template_bank_test service_test)
+  raster_test match_test pnp_test icp_test mhpo_test score_test pipeline_test template_bank_test service_test
+  tracker_test)
 FUZZ_TARGETS=(frame_message image_decode template_cache bop_json bop_csv)
 
 # The runtime options of both ASan runs: leaks, stop at the first report, suppressions.
