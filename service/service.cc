@@ -237,14 +237,12 @@ std::optional<pose_estimate_t> Service::SolveInstance(const Job& job, size_t ind
   }
 }
 
-std::vector<TrackPlan> Service::PlanFrame(const Job& job, const std::vector<Instance>& instances) {
+std::vector<TrackPlan> Service::PlanFrame(const Job& job, double time_s,
+                                          const std::vector<Instance>& instances) {
   const BankLookup banks = [this](const std::string& object_id) -> const TemplateBank* {
     const auto bank = store_.banks.find(object_id);
     return bank == store_.banks.end() ? nullptr : bank->second.get();
   };
-  // Frame time from the capture utime: the tracks age with the camera's clock, so a log
-  // replayed at any rate tracks as it was recorded.
-  const double time_s = static_cast<double>(job.header.utime) * 1e-6;
   try {
     return tracker_.Plan(time_s, instances, job.decoded.frame.camera, banks);
   } catch (const std::exception& e) {
@@ -280,7 +278,10 @@ void Service::ProcessJob(const Job& job) {
       instances.push_back(Instance{request.object_id, request.mask});
     }
   }
-  const std::vector<TrackPlan> plans = PlanFrame(job, instances);
+  // Frame time from the capture utime: the tracks age with the camera's clock, not with
+  // the time the service takes to get to a frame.
+  const double time_s = static_cast<double>(job.header.utime) * 1e-6;
+  const std::vector<TrackPlan> plans = PlanFrame(job, time_s, instances);
   std::vector<TrackedAnswer> answers(solvable.size());
   std::vector<std::optional<pose_estimate_t>> failures(solvable.size());
   // Instances fan out over the pool, and each solve fans its hypotheses (or TrackPose
@@ -290,7 +291,7 @@ void Service::ProcessJob(const Job& job) {
     failures[k] = SolveInstance(job, solvable[k], instances[k], plans[k], &answers[k]);
   });
   // An abandoned or failed instance's answer is unsolved: Update leaves its track to expire.
-  tracker_.Update(static_cast<double>(job.header.utime) * 1e-6, plans, &answers);
+  tracker_.Update(time_s, plans, &answers);
   const Clock::time_point solved = Clock::now();
 
   // Per-stage time of the full solver summed over the frame's instances (the CPU-side

@@ -112,8 +112,10 @@ class Service {
   std::optional<pose_estimate_t> SolveInstance(const Job& job, size_t index,
                                                const Instance& instance, const TrackPlan& plan,
                                                TrackedAnswer* answer);
-  /// Tracker::Plan, or detection plans (and the tracks forgotten) if it throws.
-  std::vector<TrackPlan> PlanFrame(const Job& job, const std::vector<Instance>& instances);
+  /// Tracker::Plan of the job's solvable `instances` at frame time `time_s`, or detection
+  /// plans (and the tracks forgotten) if it throws.
+  std::vector<TrackPlan> PlanFrame(const Job& job, double time_s,
+                                   const std::vector<Instance>& instances);
   void CountAnswer(const pose_estimate_t& estimate);
   bool IsStale(int64_t frame_utime) const;
   void Publish(const std::string& channel, const pose_array_t& answer);

@@ -672,6 +672,10 @@ TEST(ReplayEndToEnd, SyntheticBopThroughTheRealService) {
                     estimate.orientation[1], estimate.orientation[2], estimate.orientation[3],
                     estimate.score, estimate.confidence);
       EXPECT_THAT(printed.output, HasSubstr(line));
+      // ... and how the answer was made: the service tracks by default.
+      EXPECT_THAT(printed.output,
+                  HasSubstr(std::string(line) + "  (" + EstimateModeName(estimate.mode) +
+                            " track " + std::to_string(estimate.track_id)));
       ++printed_ok;
     }
   }
