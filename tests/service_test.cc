@@ -645,6 +645,29 @@ TEST_F(ServiceTrackingTest, TrackExpiresAfterMaxAge) {
   EXPECT_EQ(after.frames_since_detection, 0);
 }
 
+TEST_F(ServiceTrackingTest, PeriodicRedetectionKeepsTheTrack) {
+  ServiceOptions options = Options("track_periodic");
+  options.tracking.redetect_every = 2;
+  StartService(options);
+  Eigen::Isometry3d truth = BoxPose();
+  const pose_estimate_t first = Solve(FrameAt(Render(truth, 85), 1, kStartUtime), truth);
+  ASSERT_GT(first.track_id, 0);
+  // Two tracked answers, then the due re-detection (the tracked pose is fine: the answer is
+  // the better of the two by S), then tracking again from 0.
+  const int expected_mode[4] = {pose_estimate_t::MODE_TRACKED, pose_estimate_t::MODE_TRACKED,
+                                pose_estimate_t::MODE_REDETECTED, pose_estimate_t::MODE_TRACKED};
+  const int expected_frames[4] = {1, 2, 0, 1};
+  for (int frame = 1; frame <= 4; ++frame) {
+    SCOPED_TRACE("frame " + std::to_string(frame + 1));
+    truth = SmallStep(truth);
+    const pose_estimate_t next = Solve(
+        FrameAt(Render(truth, 85 + frame), 1 + frame, kStartUtime + frame * kFramePeriodUs), truth);
+    EXPECT_EQ(next.mode, expected_mode[frame - 1]);
+    EXPECT_EQ(next.track_id, first.track_id);
+    EXPECT_EQ(next.frames_since_detection, expected_frames[frame - 1]);
+  }
+}
+
 // Every field but the solver's wall time, bit for bit.
 void ExpectSameEstimate(const pose_estimate_t& got, const pose_estimate_t& expected) {
   EXPECT_EQ(got.object_id, expected.object_id);
