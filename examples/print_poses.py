@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Prints the poses g6d-service answers with: object id, status, cam_from_object
-(position in metres, quaternion w x y z), S_A (lower is better) and confidence.
+(position in metres, quaternion w x y z), S_A (lower is better), confidence, and how the
+answer was made (detected / tracked / redetected, the track id).
 
 Two sources, one decoding (the pure-Python classes lcm-gen makes from lcmtypes/; they
 decode without the lcm module):
@@ -71,6 +72,17 @@ def import_pose_array(types_dir):
 
 STATUS_NAMES = {0: "ok", 1: "no_solution", 2: "bad_input", 3: "unknown_object",
                 4: "internal_error"}
+MODE_NAMES = {0: "detected", 1: "tracked", 2: "redetected"}
+
+
+def format_track(estimate):
+    """How the answer was made: "detected", or the mode and the service's track id."""
+    mode = MODE_NAMES.get(estimate.mode, f"unknown({estimate.mode})")
+    if estimate.track_id < 0:
+        return mode
+    since = (f", {estimate.frames_since_detection} since detection"
+             if estimate.frames_since_detection > 0 else "")
+    return f"{mode} track {estimate.track_id}{since}"
 
 
 def format_answer(answer):
@@ -88,7 +100,8 @@ def format_answer(answer):
         qw, qx, qy, qz = estimate.orientation
         lines.append(f"  {estimate.object_id} label {estimate.label}: ok "
                      f"t = [{x:.4f} {y:.4f} {z:.4f}] m  q = [{qw:.5f} {qx:.5f} {qy:.5f} {qz:.5f}]"
-                     f"  S_A = {estimate.score:.4f}  confidence = {estimate.confidence:.3f}")
+                     f"  S_A = {estimate.score:.4f}  confidence = {estimate.confidence:.3f}"
+                     f"  ({format_track(estimate)})")
     return lines
 
 

@@ -220,6 +220,8 @@ void Summarize(const ReplayOptions& options, ReplayReport* report) {
     for (const pose_estimate_t& estimate : frame.answer.estimates) {
       ++report->estimates;
       ++report->estimates_by_status[EstimateStatusName(estimate.status)];
+      if (estimate.status == pose_estimate_t::STATUS_OK)
+        ++report->estimates_by_mode[EstimateModeName(estimate.mode)];
     }
   }
   report->latency_p50_s = Percentile(latencies, 0.5);
@@ -438,6 +440,9 @@ std::string ReplaySummaryJson(const ReplayOptions& options, const FrameLogStats&
       report.estimates_by_status.count("ok") ? report.estimates_by_status.at("ok") : 0;
   Json by_status = Json::object();
   for (const auto& [name, count] : report.estimates_by_status) by_status[name] = count;
+  // Every mode, zeros included, so that a run without tracking says so.
+  Json by_mode = {{"detected", 0}, {"tracked", 0}, {"redetected", 0}};
+  for (const auto& [name, count] : report.estimates_by_mode) by_mode[name] = count;
   Json foreign = Json::object();
   for (const auto& [name, count] : log.foreign_channels) foreign[name] = count;
   Json summary = {
@@ -470,7 +475,8 @@ std::string ReplaySummaryJson(const ReplayOptions& options, const FrameLogStats&
        {{"total", report.estimates},
         {"ok", ok},
         {"failed", report.estimates - ok},
-        {"by_status", by_status}}},
+        {"by_status", by_status},
+        {"by_mode", by_mode}}},
       {"latency_s", percentiles(report.latency_p50_s, report.latency_p95_s, report.latency_max_s)},
       {"service_total_s",
        percentiles(report.service_p50_s, report.service_p95_s, report.service_max_s)},
@@ -495,6 +501,8 @@ std::string ReplaySummaryJson(const ReplayOptions& options, const FrameLogStats&
         Json item = {{"object_id", estimate.object_id},
                      {"gt_index", estimate.gt_index},
                      {"status", EstimateStatusName(estimate.status)},
+                     {"mode", EstimateModeName(estimate.mode)},
+                     {"track_id", estimate.track_id},
                      {"solve_time_s", estimate.solve_time_s}};
         if (estimate.status != pose_estimate_t::STATUS_OK) item["message"] = estimate.message;
         estimates.push_back(item);
@@ -539,6 +547,9 @@ std::string EstimatesJsonLines(const std::vector<ReplayedFrame>& frames) {
           {"appearance_agreement", appearance_agreement},
           {"hypotheses", estimate.hypotheses},
           {"solve_time_s", estimate.solve_time_s},
+          {"mode", EstimateModeName(estimate.mode)},
+          {"track_id", estimate.track_id},
+          {"frames_since_detection", estimate.frames_since_detection},
           {"position", {estimate.position[0], estimate.position[1], estimate.position[2]}},
           {"orientation",
            {estimate.orientation[0], estimate.orientation[1], estimate.orientation[2],

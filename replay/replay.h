@@ -94,6 +94,8 @@ struct ReplayReport {
   /// Estimates per status name ("ok", "no_solution", "bad_input", "unknown_object",
   /// "internal_error", "unknown(<code>)").
   std::map<std::string, int64_t> estimates_by_status;
+  /// OK estimates per mode name ("detected", "tracked", "redetected"; EstimateModeName).
+  std::map<std::string, int64_t> estimates_by_mode;
   double latency_p50_s = 0.0;  ///< round trip send -> answer, over answered frames
   double latency_p95_s = 0.0;
   double latency_max_s = 0.0;
@@ -152,10 +154,12 @@ std::vector<BopEstimate> AnswersToBopEstimates(const std::vector<ReplayedFrame>&
 
 /// The summary of a run as pretty-printed JSON: the log's counts (events, frames, foreign
 /// and undecodable events, truncation), the options, sent / answered / lost / timed_out /
-/// late / rejected frames, estimates ok and failed by status, latency_s and
+/// late / rejected frames, estimates ok and failed by status, ok estimates by mode
+/// (by_mode: detected / tracked / redetected), latency_s and
 /// service_total_s percentiles (p50, p95, max), the verdict, and one entry per sent frame
 /// (ids, answered, latency_s, service_total_s, and per estimate object_id, gt_index,
-/// status, solve_time_s, and the message of a failure) so runs can be merged exactly.
+/// status, mode, track_id, solve_time_s, and the message of a failure) so runs can be
+/// merged exactly.
 std::string ReplaySummaryJson(const ReplayOptions& options, const FrameLogStats& log,
                               const ReplayReport& report);
 
@@ -164,7 +168,8 @@ std::string ReplaySummaryJson(const ReplayOptions& options, const FrameLogStats&
 /// gt_index, status (EstimateStatusName), message, score (S_A, lower is better),
 /// confidence, iou, depth_residual, truncated, ambiguous (booleans), runner_up_score (S of
 /// the runner-up; null without one), appearance_agreement (ZNCC in [-1, 1]; null when not
-/// valid), hypotheses, solve_time_s, position (m) and orientation (w, x, y, z) of
+/// valid), hypotheses, solve_time_s, mode ("detected", "tracked", "redetected"), track_id
+/// (-1: no track), frames_since_detection, position (m) and orientation (w, x, y, z) of
 /// cam_from_object, and the frame's latency_s and service total_s. Failed estimates are
 /// included; frames rejected as a whole or never answered give no line.
 std::string EstimatesJsonLines(const std::vector<ReplayedFrame>& frames);

@@ -221,6 +221,14 @@ int main(int argc, char** argv) {
     for (const auto& [name, count] : report.estimates_by_status) {
       if (name != "ok") std::printf(" (%s %lld)", name.c_str(), static_cast<long long>(count));
     }
+    if (ok > 0) {
+      const auto count = [&](const char* mode) {
+        const auto found = report.estimates_by_mode.find(mode);
+        return static_cast<long long>(found == report.estimates_by_mode.end() ? 0 : found->second);
+      };
+      std::printf(" [detected %lld, tracked %lld, redetected %lld]", count("detected"),
+                  count("tracked"), count("redetected"));
+    }
     std::printf("; latency p50 %.3f s, p95 %.3f s, max %.3f s; %.1f s in all\n",
                 report.latency_p50_s, report.latency_p95_s, report.latency_max_s, report.wall_s);
     if (report.unmatched_answers > 0) {

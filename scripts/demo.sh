@@ -24,6 +24,8 @@
 #   FRAMES=12 SEED=1   the sample's length and seed
 #   K=                 hypotheses N_H of the service (default: the service's own, 18)
 #   WORKERS=2          solver threads of the service (and template build threads)
+#   TRACKING=off       g6d-service --tracking: every sample image (and BOP image) is a new
+#                      arrangement, scored on its own; on: tracks across the images
 #   EVAL_ARGS="..."    extra g6d-eval arguments, e.g. "--adds-ids 21" (YCB-V's foam brick)
 #   SEQUENCE_FRAMES=90 the tracking sequence's length (0: no tracking part; never with DATASET)
 # Exit status 0 only when every step ran and every image was answered.
@@ -98,7 +100,7 @@ fi
 
 # 2. The service on a loopback multicast port of this run only.
 URL="$(g6d_lcm_url)"
-service_args=(--workers "${WORKERS}")
+service_args=(--workers "${WORKERS}" --tracking "${TRACKING:-off}")
 if [[ -n "${K:-}" ]]; then service_args+=(--hypotheses "${K}"); fi
 trap 'g6d_stop_service || true' EXIT
 trap 'exit 130' INT TERM

@@ -23,12 +23,14 @@
 #   WORKERS=2              service worker threads
 #   COLOR=png              colour encoding of the logs (png, zstd, raw: lossless; jpeg: lossy)
 #   TIMEOUT_MS=120000      per-frame answer timeout of g6d-replay
+#   TRACKING=off           g6d-service --tracking: BOP scores every image on its own, so the
+#                          images are detected one by one (on: tracks across a scene's images)
 #   EVAL_ARGS="..."        extra g6d-eval arguments, e.g. "--adds-ids 21"
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 if [[ $# -lt 1 || $# -gt 3 ]]; then
-  sed -n '2,26p' "$0" | sed 's/^# \{0,1\}//'
+  sed -n '2,28p' "$0" | sed 's/^# \{0,1\}//'
   exit 2
 fi
 DATASET="${1%/}"
@@ -118,7 +120,7 @@ stop_service() {
 trap stop_service EXIT
 trap "exit 130" INT TERM
 "${BIN_SERVICE}" --templates "${CACHE_DIR}" --lcm-url "${URL}" --workers "${WORKERS}" --hypotheses "${K}" \
-  > "${OUT}/service.log" 2>&1 &
+  --tracking "${TRACKING:-off}" > "${OUT}/service.log" 2>&1 &
 SERVICE_PID=$!
 echo "[eval] g6d-service pid ${SERVICE_PID} on ${URL} (log ${OUT}/service.log)"
 

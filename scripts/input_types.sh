@@ -37,8 +37,10 @@ for spec in g6d:png drake:png bot_core:raw bot_core:jpeg; do
   log="${OUT}/${as}_${color}.lcmlog"
   "${B}/replay/g6d-bop2lcm" --dataset "${DATASET}" --scene "${SCENE}" --channel INPUT_TYPES \
     --as "${as}" --color "${color}" --out "${log}" | tail -1
+  # --tracking off: the BOP images are scored one by one, and the comparison is row by row
+  # (a track's constant-velocity start depends on the replay's send times).
   "${B}/service/g6d-service" --templates "${OUT}/caches" --config "${log}.yaml" \
-    --hypotheses "${K}" --workers "${WORKERS}" --output INPUT_TYPES_POSES \
+    --hypotheses "${K}" --workers "${WORKERS}" --tracking off --output INPUT_TYPES_POSES \
     --status INPUT_TYPES_STATUS --lcm-url "${URL}" > "${log}.service.log" 2>&1 &
   pid=$!
   "${B}/replay/g6d-replay" --log "${log}" --channel INPUT_TYPES --input-type "${as}" \

@@ -33,12 +33,18 @@ std::string JoinIds(const std::vector<std::string>& ids) {
   return joined.empty() ? "none" : joined;
 }
 
+// `options` when they are valid; throws naming the bad field otherwise (before any member
+// is built from them).
+const ServiceOptions& Checked(const ServiceOptions& options) {
+  if (const std::string error = options.Check(); !error.empty())
+    G6D_THROW("ServiceOptions: " << error);
+  return options;
+}
+
 }  // namespace
 
 Service::Service(const ServiceOptions& options, TemplateStore store, lcm::LCM* lcm)
-    : options_(options), store_(std::move(store)), lcm_(lcm) {
-  if (const std::string error = options_.Check(); !error.empty())
-    G6D_THROW("ServiceOptions: " << error);
+    : options_(Checked(options)), store_(std::move(store)), lcm_(lcm), tracker_(options_.tracking) {
   if (lcm_ == nullptr || !lcm_->good()) G6D_THROW("Service: the LCM instance is not usable");
   solver_options_ = options_.solver;
   // Shutdown cuts running solves short (each returns its best pose so far within about a
@@ -68,6 +74,17 @@ void Service::Start() {
                options_.input_channel, InputTypeName(options_.input_type),
                options_.output_channel, options_.status_channel,
                options_.workers, solver_options_.num_hypotheses, JoinIds(store_.ObjectIds()));
+  const TrackerOptions& tracking = options_.tracking;
+  if (tracking.enabled) {
+    spdlog::info(
+        "tracking on: max age {} s, min overlap {}, loss score {}, min IoU {}, "
+        "re-detect every {} frames ({} per frame), constant velocity {}",
+        tracking.max_age_s, tracking.min_overlap, tracking.loss_score, tracking.min_iou,
+        tracking.redetect_every, tracking.max_periodic_per_frame,
+        tracking.constant_velocity ? "on" : "off");
+  } else {
+    spdlog::info("tracking off: every instance is solved by the full solver");
+  }
 }
 
 void Service::Stop() {
@@ -94,9 +111,12 @@ void Service::Stop() {
   status_wake_.notify_all();
   status_thread_.join();
   const ServiceCounters counters = Counters();
-  spdlog::info("stopped: received {}, processed {}, dropped {}, stale {}, rejected {}",
-               counters.frames_received, counters.frames_processed, counters.frames_dropped,
-               counters.frames_stale, counters.frames_rejected);
+  spdlog::info(
+      "stopped: received {}, processed {}, dropped {}, stale {}, rejected {}; "
+      "answers detected {}, tracked {}, redetected {}",
+      counters.frames_received, counters.frames_processed, counters.frames_dropped,
+      counters.frames_stale, counters.frames_rejected, counters.answers_detected,
+      counters.answers_tracked, counters.answers_redetected);
 }
 
 // ---- LCM thread ---------------------------------------------------------------------------
@@ -195,32 +215,45 @@ void Service::SchedulerLoop() {
   }
 }
 
-pose_estimate_t Service::SolveInstance(const Job& job, size_t index, StageReport* stages) {
-  const DecodedInstance& instance = job.decoded.instances[index];
+std::optional<pose_estimate_t> Service::SolveInstance(const Job& job, size_t index,
+                                                      const Instance& instance,
+                                                      const TrackPlan& plan,
+                                                      TrackedAnswer* answer) {
+  const DecodedInstance& request = job.decoded.instances[index];
   if (abandon_) {
-    return MakeFailedEstimate(instance, pose_estimate_t::STATUS_INTERNAL_ERROR,
+    return MakeFailedEstimate(request, pose_estimate_t::STATUS_INTERNAL_ERROR,
                               "abandoned: the service is shutting down");
   }
-  if (!instance.error.empty())
-    return MakeFailedEstimate(instance, pose_estimate_t::STATUS_BAD_INPUT, instance.error);
-  const auto bank = store_.banks.find(instance.object_id);
-  if (bank == store_.banks.end()) {
-    return MakeFailedEstimate(instance, pose_estimate_t::STATUS_UNKNOWN_OBJECT,
-                              "no template cache for object id '" + instance.object_id +
-                                  "' (loaded: " + JoinIds(store_.ObjectIds()) + ")");
-  }
   try {
-    const PoseResult result =
-        EstimatePose(job.decoded.frame, Instance{instance.object_id, instance.mask}, *bank->second,
-                     solver_options_, pool_.get());
-    *stages = result.stages;
-    return MakePoseEstimate(instance, result);
+    *answer = SolveWithPlan(job.decoded.frame, instance, *store_.banks.at(instance.object_id),
+                            solver_options_, tracker_.options(), plan, pool_.get());
+    return std::nullopt;
   } catch (const std::exception& e) {
-    return MakeFailedEstimate(instance, pose_estimate_t::STATUS_INTERNAL_ERROR,
+    return MakeFailedEstimate(request, pose_estimate_t::STATUS_INTERNAL_ERROR,
                               std::string("solver error: ") + e.what());
   } catch (...) {
-    return MakeFailedEstimate(instance, pose_estimate_t::STATUS_INTERNAL_ERROR,
+    return MakeFailedEstimate(request, pose_estimate_t::STATUS_INTERNAL_ERROR,
                               "solver error: unknown exception");
+  }
+}
+
+std::vector<TrackPlan> Service::PlanFrame(const Job& job, double time_s,
+                                          const std::vector<Instance>& instances) {
+  const BankLookup banks = [this](const std::string& object_id) -> const TemplateBank* {
+    const auto bank = store_.banks.find(object_id);
+    return bank == store_.banks.end() ? nullptr : bank->second.get();
+  };
+  try {
+    return tracker_.Plan(time_s, instances, job.decoded.frame.camera, banks);
+  } catch (const std::exception& e) {
+    // Nothing in planning should throw for a frame that decoded; if it does, this frame
+    // is detected from scratch rather than lost.
+    spdlog::error("frame seq {}: tracking plan failed ({}); tracks forgotten", job.header.seq,
+                  e.what());
+    tracker_.Clear();
+    std::vector<TrackPlan> plans(instances.size());
+    for (size_t i = 0; i < instances.size(); ++i) plans[i].object_id = instances[i].object_id;
+    return plans;
   }
 }
 
@@ -228,27 +261,64 @@ void Service::ProcessJob(const Job& job) {
   const Clock::time_point picked = Clock::now();
   const size_t n = job.decoded.instances.size();
   std::vector<pose_estimate_t> estimates(n);
-  std::vector<StageReport> stages(n);
-  // Instances fan out over the pool, and EstimatePose fans each one's hypotheses out
-  // over the same pool (nested ParallelFor is safe: the caller always takes part).
-  pool_->ParallelFor(static_cast<int>(n), [&](int i) {
-    estimates[i] = SolveInstance(job, static_cast<size_t>(i), &stages[i]);
+  // The instances the solver can take (valid, with a bank) go to the tracker and the
+  // solver; the others are answered here.
+  std::vector<size_t> solvable;
+  std::vector<Instance> instances;
+  for (size_t i = 0; i < n; ++i) {
+    const DecodedInstance& request = job.decoded.instances[i];
+    if (!request.error.empty()) {
+      estimates[i] = MakeFailedEstimate(request, pose_estimate_t::STATUS_BAD_INPUT, request.error);
+    } else if (store_.banks.count(request.object_id) == 0) {
+      estimates[i] = MakeFailedEstimate(request, pose_estimate_t::STATUS_UNKNOWN_OBJECT,
+                                        "no template cache for object id '" + request.object_id +
+                                            "' (loaded: " + JoinIds(store_.ObjectIds()) + ")");
+    } else {
+      solvable.push_back(i);
+      instances.push_back(Instance{request.object_id, request.mask});
+    }
+  }
+  // Frame time from the capture utime: the tracks age with the camera's clock, not with
+  // the time the service takes to get to a frame.
+  const double time_s = static_cast<double>(job.header.utime) * 1e-6;
+  const std::vector<TrackPlan> plans = PlanFrame(job, time_s, instances);
+  std::vector<TrackedAnswer> answers(solvable.size());
+  std::vector<std::optional<pose_estimate_t>> failures(solvable.size());
+  // Instances fan out over the pool, and each solve fans its hypotheses (or TrackPose
+  // starts) out over the same pool (nested ParallelFor is safe: the caller always takes
+  // part).
+  pool_->ParallelFor(static_cast<int>(solvable.size()), [&](int k) {
+    failures[k] = SolveInstance(job, solvable[k], instances[k], plans[k], &answers[k]);
   });
+  // An abandoned or failed instance's answer is unsolved: Update leaves its track to expire.
+  tracker_.Update(time_s, plans, &answers);
   const Clock::time_point solved = Clock::now();
 
-  // Stage times are summed over the frame's instances (CPU-side cost of each stage).
-  // Per-stage time summed over the frame's instances, named and ordered as StageTimes
-  // gives them (one list for the service, g6d-solve and the benchmarks); the frame's wall
-  // time is "solve" below, as instances are solved in parallel.
+  // Per-stage time of the full solver summed over the frame's instances (the CPU-side
+  // cost of each stage), named and ordered as StageTimes gives them (one list for the
+  // service, g6d-solve and the benchmarks); "track" is TrackPose's time summed the same
+  // way, and the frame's wall time is "solve" below, as instances are solved in parallel.
+  // An answer whose pose came from TrackPose carries TrackPose's stages: they are in
+  // "track", not in the solver's stages.
   std::vector<StageTime> sum = StageTimes(StageReport());
-  for (const StageReport& s : stages) {
-    const std::vector<StageTime> times = StageTimes(s);
-    for (size_t k = 0; k < sum.size(); ++k) sum[k].ms += times[k].ms;
+  double track_ms = 0.0;
+  for (size_t k = 0; k < solvable.size(); ++k) {
+    const size_t i = solvable[k];
+    const TrackedAnswer& answer = answers[k];
+    estimates[i] =
+        failures[k] ? *failures[k] : MakeTrackedEstimate(job.decoded.instances[i], answer);
+    CountAnswer(estimates[i]);
+    if (failures[k]) continue;
+    track_ms += answer.track_ms;
+    if (answer.from_track) continue;
+    const std::vector<StageTime> times = StageTimes(answer.result.stages);
+    for (size_t s = 0; s < sum.size(); ++s) sum[s].ms += times[s].ms;
   }
   Timings timings = {{"queue_wait", SecondsBetween(job.queued, picked)}, {"decode", job.decode_s}};
   for (const StageTime& stage : sum) {
     if (std::string(stage.name) != "total") timings.emplace_back(stage.name, stage.ms * 1e-3);
   }
+  timings.emplace_back("track", track_ms * 1e-3);
   timings.emplace_back("solve", SecondsBetween(picked, solved));
   timings.emplace_back("publish", 0.0);
   pose_array_t answer = MakePoseArray(job.header, pose_array_t::STATUS_OK, "ok",
@@ -263,6 +333,21 @@ void Service::ProcessJob(const Job& job) {
   RecordLatency(answer.total_s);
   Publish(options_.output_channel, answer);
   if (options_.publish_rigid_transforms) PublishRigidTransforms(answer);
+}
+
+void Service::CountAnswer(const pose_estimate_t& estimate) {
+  if (estimate.status != pose_estimate_t::STATUS_OK) return;
+  switch (estimate.mode) {
+    case pose_estimate_t::MODE_TRACKED:
+      tracked_.fetch_add(1);
+      break;
+    case pose_estimate_t::MODE_REDETECTED:
+      redetected_.fetch_add(1);
+      break;
+    default:
+      detected_.fetch_add(1);
+      break;
+  }
 }
 
 // ---- Status -------------------------------------------------------------------------------
@@ -299,6 +384,9 @@ ServiceCounters Service::Counters() const {
   }
   counters.latency_p50_s = Percentile(latencies, 0.50);
   counters.latency_p95_s = Percentile(latencies, 0.95);
+  counters.answers_detected = detected_.load();
+  counters.answers_tracked = tracked_.load();
+  counters.answers_redetected = redetected_.load();
   counters.busy = busy_.load();
   counters.mailbox_full = mailbox_.Full();
   counters.uptime_s = SecondsBetween(start_time_, Clock::now());
@@ -326,6 +414,10 @@ service_status_t Service::MakeStatus() const {
   status.hypotheses = solver_options_.num_hypotheses;
   status.objects = store_.ObjectIds();
   status.num_objects = static_cast<int32_t>(status.objects.size());
+  status.tracking = options_.tracking.enabled ? 1 : 0;
+  status.answers_detected = counters.answers_detected;
+  status.answers_tracked = counters.answers_tracked;
+  status.answers_redetected = counters.answers_redetected;
   return status;
 }
 

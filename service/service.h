@@ -8,9 +8,12 @@
 ///    it in a one-slot latest-frame mailbox (a newer frame replaces an unprocessed one and
 ///    counts as a drop). Frames that do not validate are answered at once with
 ///    STATUS_BAD_FRAME from this thread and never reach the mailbox.
-///  - the scheduler thread: takes the newest frame, runs every instance through
-///    EstimatePose over the worker pool (instances and each instance's hypotheses fan out
-///    over the same pool; the scheduler thread takes part), publishes the answer.
+///  - the scheduler thread: takes the newest frame, plans it with the Tracker (which
+///    instance continues which track), solves every instance as planned (SolveWithPlan:
+///    the full solver, or TrackPose from its track's pose) over the worker pool (instances
+///    and each instance's hypotheses fan out over the same pool; the scheduler thread
+///    takes part), records the answers in the Tracker, publishes the answer. The Tracker
+///    is touched by this thread only.
 ///  - the status thread: publishes g6d.service_status_t every status_period_s.
 ///  - options.workers - 1 pool threads.
 /// Nothing polls or sleeps: every wait is on a condition variable or a file descriptor.
@@ -34,6 +37,7 @@
 #include "service/mailbox.h"
 #include "service/service_options.h"
 #include "service/template_store.h"
+#include "track/tracker.h"
 #include "wire/answer.h"
 #include "wire/frame_codec.h"
 #include "wire/lcm_loop.h"
@@ -50,6 +54,9 @@ struct ServiceCounters {
   int64_t frames_rejected = 0;  ///< answered with STATUS_BAD_FRAME
   double latency_p50_s = 0.0;   ///< end-to-end, over the last latency_window frames
   double latency_p95_s = 0.0;
+  int64_t answers_detected = 0;  ///< OK estimates by mode (pose_estimate_t::mode)
+  int64_t answers_tracked = 0;
+  int64_t answers_redetected = 0;
   bool busy = false;          ///< a frame is being solved
   bool mailbox_full = false;  ///< a frame waits in the mailbox
   double uptime_s = 0.0;
@@ -99,7 +106,17 @@ class Service {
   void Reject(const FrameHeader& header, const std::string& reason, Clock::time_point received,
               double decode_s);
   void ProcessJob(const Job& job);
-  pose_estimate_t SolveInstance(const Job& job, size_t index, StageReport* stages);
+  /// Solves instance `index` of the job (valid, with a bank; `instance` is its solver
+  /// input) as `plan` says into *answer. Returns the failed estimate of an abandoned
+  /// instance or of a solver exception (*answer then stays unsolved), else nothing.
+  std::optional<pose_estimate_t> SolveInstance(const Job& job, size_t index,
+                                               const Instance& instance, const TrackPlan& plan,
+                                               TrackedAnswer* answer);
+  /// Tracker::Plan of the job's solvable `instances` at frame time `time_s`, or detection
+  /// plans (and the tracks forgotten) if it throws.
+  std::vector<TrackPlan> PlanFrame(const Job& job, double time_s,
+                                   const std::vector<Instance>& instances);
+  void CountAnswer(const pose_estimate_t& estimate);
   bool IsStale(int64_t frame_utime) const;
   void Publish(const std::string& channel, const pose_array_t& answer);
   void Publish(const std::string& channel, const service_status_t& status);
@@ -115,6 +132,7 @@ class Service {
   const Clock::time_point start_time_ = Clock::now();
 
   std::unique_ptr<ThreadPool> pool_;
+  Tracker tracker_;  ///< the camera's tracks; the scheduler thread's only
   LatestMailbox<Job> mailbox_;
   lcm::Subscription* subscription_ = nullptr;
 
@@ -131,6 +149,7 @@ class Service {
 
   std::atomic<int64_t> input_seq_{0};  ///< seq given to inputs that carry none (bot_core)
   std::atomic<int64_t> received_{0}, processed_{0}, dropped_{0}, stale_{0}, rejected_{0};
+  std::atomic<int64_t> detected_{0}, tracked_{0}, redetected_{0};  ///< OK estimates by mode
   std::atomic<bool> busy_{false};
   mutable std::mutex latency_mutex_;
   std::deque<double> latencies_s_;  ///< the last latency_window end-to-end latencies

@@ -1,8 +1,8 @@
 // g6d-service: the LCM pose service for one camera.
 //
 //   g6d-service --templates DIR [--input G6D_RGBD] [--output G6D_POSES] [--status G6D_STATUS]
-//               [--lcm-url URL] [--workers N] [--hypotheses K] [--max-age-ms MS] [--config
-//               FILE.yaml]
+//               [--lcm-url URL] [--workers N] [--hypotheses K] [--max-age-ms MS]
+//               [--tracking on|off] [--track-* ...] [--config FILE.yaml]
 //
 // Options come from the YAML file first, then from the flags given on the command line.
 // SIGINT/SIGTERM stop it: no new frames, the current one finishes or is abandoned within
@@ -118,6 +118,43 @@ int main(int argc, char** argv) {
       app.add_option("--rigid-transform-prefix", flags.rigid_transform_prefix,
                      "channel prefix of those transforms")
           ->capture_default_str();
+  // Tracking (TrackerOptions). The switches take on|off, so that a YAML "tracking:
+  // {enabled: false}" can be turned back on from the command line.
+  std::string tracking_switch = "on", velocity_switch = "on";
+  auto* tracking = app.add_option("--tracking", tracking_switch,
+                                  "on|off: solve an instance that continues a track from its "
+                                  "last pose (off: every instance gets the full solver)")
+                       ->check(CLI::IsMember({"on", "off"}))
+                       ->capture_default_str();
+  auto* track_max_age = app.add_option("--track-max-age-s", flags.tracking.max_age_s,
+                                       "a track without an answer for longer than this (frame "
+                                       "time, seconds) is dropped")
+                            ->capture_default_str();
+  auto* track_min_overlap =
+      app.add_option("--track-min-overlap", flags.tracking.min_overlap,
+                     "an instance continues a track when its mask overlaps the track's predicted "
+                     "silhouette by at least this (|M and P| / min(|M|, |P|))")
+          ->capture_default_str();
+  auto* track_loss_score = app.add_option("--track-loss-score", flags.tracking.loss_score,
+                                          "a tracked pose with S_A above this is lost (the full "
+                                          "solver runs in the same frame)")
+                               ->capture_default_str();
+  auto* track_min_iou = app.add_option("--track-min-iou", flags.tracking.min_iou,
+                                       "... or with a silhouette/mask IoU below this")
+                            ->capture_default_str();
+  auto* redetect_every = app.add_option("--redetect-every", flags.tracking.redetect_every,
+                                        "re-detect a track after this many tracked answers "
+                                        "(0 = never)")
+                             ->capture_default_str();
+  auto* redetect_per_frame =
+      app.add_option("--redetect-per-frame", flags.tracking.max_periodic_per_frame,
+                     "periodic re-detections in one frame at most")
+          ->capture_default_str();
+  auto* track_velocity =
+      app.add_option("--track-constant-velocity", velocity_switch,
+                     "on|off: start from the constant-velocity prediction as well")
+          ->check(CLI::IsMember({"on", "off"}))
+          ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   g6d::ServiceOptions options = defaults;
@@ -143,6 +180,15 @@ int main(int argc, char** argv) {
   if (given(shutdown)) options.shutdown_timeout_s = flags.shutdown_timeout_s;
   if (given(rigid)) options.publish_rigid_transforms = flags.publish_rigid_transforms;
   if (given(rigid_prefix)) options.rigid_transform_prefix = flags.rigid_transform_prefix;
+  if (given(tracking)) options.tracking.enabled = tracking_switch == "on";
+  if (given(track_max_age)) options.tracking.max_age_s = flags.tracking.max_age_s;
+  if (given(track_min_overlap)) options.tracking.min_overlap = flags.tracking.min_overlap;
+  if (given(track_loss_score)) options.tracking.loss_score = flags.tracking.loss_score;
+  if (given(track_min_iou)) options.tracking.min_iou = flags.tracking.min_iou;
+  if (given(redetect_every)) options.tracking.redetect_every = flags.tracking.redetect_every;
+  if (given(redetect_per_frame))
+    options.tracking.max_periodic_per_frame = flags.tracking.max_periodic_per_frame;
+  if (given(track_velocity)) options.tracking.constant_velocity = velocity_switch == "on";
   try {
     if (given(input_type_option)) options.input_type = g6d::ParseInputType(input_type);
     if (given(camera_option)) options.adapter.camera = g6d::LoadCameraYaml(camera_file);

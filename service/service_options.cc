@@ -46,6 +46,8 @@ std::string ServiceOptions::Check() const {
     out << error;
   else if (publish_rigid_transforms && rigid_transform_prefix.empty())
     out << "rigid_transform_prefix must not be empty";
+  else if (const std::string error = tracking.Check(); !error.empty())
+    out << "tracking: " << error;
   return out.str();
 }
 
@@ -166,7 +168,8 @@ void ParseServiceOptionsYaml(const std::string& text, const std::string& name,
                           }},
                          {"max_instances", int_field(&o.limits.max_instances)}});
              }},
-            {"solver", [&](const YAML::Node& n, const std::string& key) {
+            {"solver",
+             [&](const YAML::Node& n, const std::string& key) {
                ApplyMap(n, name, key,
                         {{"max_sets", int_field(&o.solver.match.max_sets)},
                          {"hamming_threshold", int_field(&o.solver.match.hamming_threshold)},
@@ -178,6 +181,17 @@ void ParseServiceOptionsYaml(const std::string& text, const std::string& name,
                          {"early_stop_score", double_field(&o.solver.mhpo.early_stop_score)},
                          {"reject_border_masks", bool_field(&o.solver.reject_border_masks)},
                          {"min_valid_depth_pixels", int_field(&o.solver.min_valid_depth_pixels)}});
+             }},
+            {"tracking", [&](const YAML::Node& n, const std::string& key) {
+               ApplyMap(n, name, key,
+                        {{"enabled", bool_field(&o.tracking.enabled)},
+                         {"max_age_s", double_field(&o.tracking.max_age_s)},
+                         {"min_overlap", double_field(&o.tracking.min_overlap)},
+                         {"loss_score", double_field(&o.tracking.loss_score)},
+                         {"min_iou", double_field(&o.tracking.min_iou)},
+                         {"redetect_every", int_field(&o.tracking.redetect_every)},
+                         {"max_periodic_per_frame", int_field(&o.tracking.max_periodic_per_frame)},
+                         {"constant_velocity", bool_field(&o.tracking.constant_velocity)}});
              }}});
 }
 

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "solver/pipeline.h"
+#include "track/tracker.h"
 #include "wire/frame_codec.h"
 #include "wire/input_adapters.h"
 
@@ -58,6 +59,9 @@ struct ServiceOptions {
   /// before (README, "The service"), so the service no longer trades accuracy for speed by
   /// default; --hypotheses and --budget-ms bound the time per instance where needed.
   SolverOptions solver;
+  /// Tracking (README, "Tracking"): on by default; `tracking.enabled` false (--tracking
+  /// off) answers every instance with the full solver, exactly as without a tracker.
+  TrackerOptions tracking;
 
   /// Empty when valid, else names the bad field.
   std::string Check() const;
@@ -72,8 +76,10 @@ struct ServiceOptions {
 /// limits: {max_width, max_height, max_raw_bytes, max_instances},
 /// solver: {max_sets, hamming_threshold, min_correspondences, query_features, run_icp,
 /// run_mhpo, mhpo_max_rounds, early_stop_score, reject_border_masks,
-/// min_valid_depth_pixels}. Throws g6d::Error naming the file and key on an unknown key,
-/// a value of the wrong type or a file that does not parse.
+/// min_valid_depth_pixels},
+/// tracking: {enabled, max_age_s, min_overlap, loss_score, min_iou, redetect_every,
+/// max_periodic_per_frame, constant_velocity}. Throws g6d::Error naming the file and key on an
+/// unknown key, a value of the wrong type or a file that does not parse.
 void LoadServiceOptionsYaml(const std::string& path, ServiceOptions* options);
 
 /// The same from YAML text (`name` is used in error messages).

@@ -22,8 +22,8 @@ namespace {
 namespace fs = std::filesystem;
 
 // lib/ folders are included as "core/...", "solver/...": they all belong to layer "lib".
-const std::set<std::string> kLibFolders = {"core",   "mesh", "render",   "templates",
-                                           "solver", "eval", "synthetic"};
+const std::set<std::string> kLibFolders = {"core",   "mesh", "render",    "templates",
+                                           "solver", "eval", "synthetic", "track"};
 const std::vector<std::string> kLayers = {"lib",   "wire",  "service", "replay",
                                           "tools", "bench", "tests"};
 

@@ -147,6 +147,38 @@ TEST(PoseArray, MessagesOfThePreviousDefinitionAreRefused) {
   EXPECT_LT(decoded.decode(bytes.data(), 0, static_cast<int>(bytes.size())), 0);
 }
 
+// The fingerprints of g6d.pose_array_t and g6d.service_status_t before tracking added
+// pose_estimate_t's mode, track_id and frames_since_detection and the status's answer
+// counts (lcmtypes/ at commit 3c68ddf).
+constexpr int64_t kPoseArrayHashBeforeTracking = static_cast<int64_t>(0xcb38e506c27561f4ULL);
+constexpr int64_t kServiceStatusHashBeforeTracking = static_cast<int64_t>(0xf98fa35959369da9ULL);
+
+TEST(PoseArray, TrackingFieldsRoundTripAndChangeTheFingerprints) {
+  EXPECT_NE(g6d::pose_array_t::getHash(), kPoseArrayHashBeforeTracking);
+  EXPECT_NE(g6d::service_status_t::getHash(), kServiceStatusHashBeforeTracking);
+  g6d::pose_array_t answer = MakeAnswer();
+  answer.estimates[0].mode = g6d::pose_estimate_t::MODE_REDETECTED;
+  answer.estimates[0].track_id = 12;
+  answer.estimates[0].frames_since_detection = 0;
+  g6d::pose_estimate_t tracked = answer.estimates[0];
+  tracked.mode = g6d::pose_estimate_t::MODE_TRACKED;
+  tracked.frames_since_detection = 29;
+  answer.estimates.push_back(tracked);
+  answer.num_estimates = 2;
+  const std::vector<uint8_t> bytes = Encode(answer);
+  g6d::pose_array_t decoded;
+  ASSERT_EQ(decoded.decode(bytes.data(), 0, static_cast<int>(bytes.size())),
+            static_cast<int>(bytes.size()));
+  ASSERT_EQ(decoded.num_estimates, 2);
+  EXPECT_EQ(decoded.estimates[0].mode, +g6d::pose_estimate_t::MODE_REDETECTED);
+  EXPECT_EQ(decoded.estimates[0].track_id, 12);
+  EXPECT_EQ(decoded.estimates[1].mode, +g6d::pose_estimate_t::MODE_TRACKED);
+  EXPECT_EQ(decoded.estimates[1].frames_since_detection, 29);
+  EXPECT_EQ(g6d::pose_estimate_t::MODE_DETECTED, 0);
+  EXPECT_EQ(g6d::pose_estimate_t::MODE_TRACKED, 1);
+  EXPECT_EQ(g6d::pose_estimate_t::MODE_REDETECTED, 2);
+}
+
 class Receiver {
  public:
   void Handle(const lcm::ReceiveBuffer*, const std::string& channel,

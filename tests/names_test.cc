@@ -44,6 +44,13 @@ TEST(EstimateStatusName, NamesEveryStatus) {
   EXPECT_EQ(EstimateStatusName(42), "unknown(42)");
 }
 
+TEST(EstimateModeName, NamesEveryModeAsTheTrackerDoes) {
+  EXPECT_EQ(EstimateModeName(pose_estimate_t::MODE_DETECTED), "detected");
+  EXPECT_EQ(EstimateModeName(pose_estimate_t::MODE_TRACKED), "tracked");
+  EXPECT_EQ(EstimateModeName(pose_estimate_t::MODE_REDETECTED), "redetected");
+  EXPECT_EQ(EstimateModeName(3), "unknown(3)");
+}
+
 TEST(FrameStatusName, NamesEveryStatus) {
   EXPECT_EQ(FrameStatusName(pose_array_t::STATUS_OK), "ok");
   EXPECT_EQ(FrameStatusName(pose_array_t::STATUS_BAD_FRAME), "bad_frame");

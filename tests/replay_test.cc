@@ -35,6 +35,7 @@
 #include "test_util.h"
 #include "wire/frame_codec.h"
 #include "wire/lcm_loop.h"
+#include "wire/names.h"
 
 namespace g6d {
 namespace {
@@ -130,6 +131,14 @@ pose_array_t FakeAnswer(const rgbd_frame_t& frame) {
     estimate.score = 0.2;
     estimate.confidence = 0.9 - 0.1 * frame.seq;
     estimate.solve_time_s = 0.01;
+    // Frame 0 starts track 3, frame 1 continues it, frame 2 re-detects it.
+    estimate.track_id = instance.label == 1 ? 3 : -1;
+    if (instance.label == 1 && frame.seq % 3 == 1) {
+      estimate.mode = pose_estimate_t::MODE_TRACKED;
+      estimate.frames_since_detection = 1;
+    } else if (instance.label == 1 && frame.seq % 3 == 2) {
+      estimate.mode = pose_estimate_t::MODE_REDETECTED;
+    }
     answer.estimates.push_back(estimate);
   }
   answer.num_estimates = static_cast<int32_t>(answer.estimates.size());
@@ -218,6 +227,10 @@ TEST(RunReplay, WaitModeAnswersEveryFrameInOrder) {
   EXPECT_EQ(report.estimates, 6);
   EXPECT_EQ(report.estimates_by_status.at("ok"), 3);
   EXPECT_EQ(report.estimates_by_status.at("no_solution"), 3);
+  // OK estimates only, by mode.
+  EXPECT_EQ(report.estimates_by_mode.at("detected"), 1);
+  EXPECT_EQ(report.estimates_by_mode.at("tracked"), 1);
+  EXPECT_EQ(report.estimates_by_mode.at("redetected"), 1);
   EXPECT_DOUBLE_EQ(report.service_p50_s, 1.25);
   EXPECT_DOUBLE_EQ(report.service_max_s, 2.25);
   EXPECT_LE(report.latency_p50_s, report.latency_max_s);
@@ -363,6 +376,12 @@ TEST(ReplaySummaryJson, HoldsTheCounts) {
   EXPECT_EQ(summary["estimates"]["ok"], 2);
   EXPECT_EQ(summary["estimates"]["failed"], 2);
   EXPECT_EQ(summary["estimates"]["by_status"]["no_solution"], 2);
+  // Frames 0 and 2 were answered: a detection and a re-detection; every mode is named.
+  EXPECT_EQ(summary["estimates"]["by_mode"]["detected"], 1);
+  EXPECT_EQ(summary["estimates"]["by_mode"]["tracked"], 0);
+  EXPECT_EQ(summary["estimates"]["by_mode"]["redetected"], 1);
+  EXPECT_EQ(summary["frames"][2]["estimates"][0]["mode"], "redetected");
+  EXPECT_EQ(summary["frames"][2]["estimates"][0]["track_id"], 3);
   EXPECT_EQ(summary["log"]["frames"], 3);
   EXPECT_EQ(summary["log"]["truncated"], false);
   EXPECT_TRUE(summary["latency_s"].contains("p95"));
@@ -590,6 +609,13 @@ TEST(ReplayEndToEnd, SyntheticBopThroughTheRealService) {
       ASSERT_NE(found, lines.end());
       const nlohmann::json& j = found->second;
       EXPECT_EQ(j["truncated"].get<bool>(), estimate.truncated != 0);
+      EXPECT_EQ(j["mode"].get<std::string>(), EstimateModeName(estimate.mode));
+      EXPECT_EQ(j["track_id"].get<int>(), estimate.track_id);
+      EXPECT_EQ(j["frames_since_detection"].get<int>(), estimate.frames_since_detection);
+      // The service tracks by default: every solved instance has a track.
+      if (estimate.status == pose_estimate_t::STATUS_OK) {
+        EXPECT_GT(estimate.track_id, 0);
+      }
       EXPECT_EQ(j["ambiguous"].get<bool>(), estimate.ambiguous != 0);
       if (estimate.has_runner_up) {
         EXPECT_EQ(j["runner_up_score"].get<double>(), estimate.runner_up_score);
@@ -646,6 +672,10 @@ TEST(ReplayEndToEnd, SyntheticBopThroughTheRealService) {
                     estimate.orientation[1], estimate.orientation[2], estimate.orientation[3],
                     estimate.score, estimate.confidence);
       EXPECT_THAT(printed.output, HasSubstr(line));
+      // ... and how the answer was made: the service tracks by default.
+      EXPECT_THAT(printed.output,
+                  HasSubstr(std::string(line) + "  (" + EstimateModeName(estimate.mode) +
+                            " track " + std::to_string(estimate.track_id)));
       ++printed_ok;
     }
   }

@@ -188,6 +188,12 @@ TEST(EstimatesJsonLines, OneLinePerEstimateOfEveryAnsweredFrame) {
   cut.runner_up_score = 0.05;
   cut.appearance_valid = 1;
   cut.appearance_agreement = -0.5;
+  // A tracked answer of track 4; the failure belongs to no track.
+  cut.mode = pose_estimate_t::MODE_TRACKED;
+  cut.track_id = 4;
+  cut.frames_since_detection = 2;
+  frames[0].answer.estimates[1].mode = pose_estimate_t::MODE_DETECTED;
+  frames[0].answer.estimates[1].track_id = -1;
   frames[0].answer.num_estimates = 2;
   frames[1].answered = true;  // rejected as a whole: no estimates to list
   frames[1].answer.status = pose_array_t::STATUS_BAD_FRAME;
@@ -214,6 +220,12 @@ TEST(EstimatesJsonLines, OneLinePerEstimateOfEveryAnsweredFrame) {
   EXPECT_EQ(parsed[0]["ambiguous"], true);
   EXPECT_DOUBLE_EQ(parsed[0]["runner_up_score"].get<double>(), 0.05);
   EXPECT_DOUBLE_EQ(parsed[0]["appearance_agreement"].get<double>(), -0.5);
+  EXPECT_EQ(parsed[0]["mode"], "tracked");
+  EXPECT_EQ(parsed[0]["track_id"], 4);
+  EXPECT_EQ(parsed[0]["frames_since_detection"], 2);
+  EXPECT_EQ(parsed[1]["mode"], "detected");
+  EXPECT_EQ(parsed[1]["track_id"], -1);
+  EXPECT_EQ(parsed[1]["frames_since_detection"], 0);
   EXPECT_EQ(parsed[1]["truncated"], false);
   EXPECT_EQ(parsed[1]["ambiguous"], false);
   EXPECT_TRUE(parsed[1]["runner_up_score"].is_null());

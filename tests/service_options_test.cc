@@ -14,6 +14,8 @@
 namespace g6d {
 namespace {
 
+using ::testing::HasSubstr;
+
 ServiceOptions Valid() {
   ServiceOptions options;
   options.templates_dir = "/tmp";
@@ -129,6 +131,76 @@ TEST(ParseServiceOptionsYaml, RefusesUnknownKeysWrongTypesAndBadYaml) {
   expect_error("workers: many\n", "'workers' has a value of the wrong type");
   expect_error("solver: 3\n", "'solver' must be a mapping");
   expect_error("workers: [1, 2\n", "not valid YAML");
+}
+
+// Tracking (issue 14): on by default, a `tracking` section, TrackerOptions::Check().
+TEST(ServiceOptions, TrackingIsOnByDefaultAndCheckNamesItsBadField) {
+  EXPECT_TRUE(Valid().tracking.enabled);
+  ServiceOptions options = Valid();
+  options.tracking.loss_score = -1.0;
+  EXPECT_THAT(options.Check(), HasSubstr("tracking: TrackerOptions.loss_score must be > 0"));
+  options = Valid();
+  options.tracking.min_overlap = 1.5;
+  EXPECT_THAT(options.Check(), HasSubstr("TrackerOptions.min_overlap must be in [0, 1]"));
+  options = Valid();
+  options.tracking.redetect_every = -2;
+  EXPECT_THAT(options.Check(), HasSubstr("TrackerOptions.redetect_every must be >= 0 (got -2)"));
+  options = Valid();
+  options.tracking.solve.icp_iterations = -1;
+  EXPECT_THAT(options.Check(), HasSubstr("tracking: "));
+  // Off with otherwise bad thresholds is still refused: the options are one set.
+  options.tracking.enabled = false;
+  EXPECT_NE(options.Check(), "");
+}
+
+TEST(ParseServiceOptionsYaml, ReadsTheTrackingSection) {
+  ServiceOptions options = Valid();
+  ParseServiceOptionsYaml(R"(
+tracking:
+  enabled: false
+  max_age_s: 0.5
+  min_overlap: 0.4
+  loss_score: 0.2
+  min_iou: 0.7
+  redetect_every: 10
+  max_periodic_per_frame: 2
+  constant_velocity: false
+)",
+                          "tracking.yaml", &options);
+  EXPECT_FALSE(options.tracking.enabled);
+  EXPECT_EQ(options.tracking.max_age_s, 0.5);
+  EXPECT_EQ(options.tracking.min_overlap, 0.4);
+  EXPECT_EQ(options.tracking.loss_score, 0.2);
+  EXPECT_EQ(options.tracking.min_iou, 0.7);
+  EXPECT_EQ(options.tracking.redetect_every, 10);
+  EXPECT_EQ(options.tracking.max_periodic_per_frame, 2);
+  EXPECT_FALSE(options.tracking.constant_velocity);
+  EXPECT_EQ(options.Check(), "");
+  // Keys not given keep their values.
+  ParseServiceOptionsYaml("tracking: {enabled: true}\n", "tracking.yaml", &options);
+  EXPECT_TRUE(options.tracking.enabled);
+  EXPECT_EQ(options.tracking.redetect_every, 10);
+}
+
+TEST(ParseServiceOptionsYaml, RefusesBadTrackingKeysAndValues) {
+  ServiceOptions options = Valid();
+  auto expect_error = [&](const std::string& text, const std::string& words) {
+    try {
+      ParseServiceOptionsYaml(text, "bad.yaml", &options);
+      ADD_FAILURE() << "no error for: " << text;
+    } catch (const Error& e) {
+      EXPECT_THAT(e.what(), HasSubstr(words));
+      EXPECT_THAT(e.what(), HasSubstr("bad.yaml"));
+    }
+  };
+  expect_error("tracking: {max_age: 2}\n", "unknown key 'tracking.max_age'");
+  expect_error("tracking: {enabled: maybe}\n", "'tracking.enabled' has a value of the wrong type");
+  expect_error("tracking: {redetect_every: 1.5}\n",
+               "'tracking.redetect_every' has a value of the wrong type");
+  expect_error("tracking: on\n", "'tracking' must be a mapping");
+  // A value of the right type but out of range parses, and Check() names it.
+  ParseServiceOptionsYaml("tracking: {max_age_s: 0}\n", "range.yaml", &options);
+  EXPECT_THAT(options.Check(), HasSubstr("TrackerOptions.max_age_s must be > 0 (got 0)"));
 }
 
 TEST(LoadServiceOptionsYaml, ReadsAFileAndNamesAMissingOne) {

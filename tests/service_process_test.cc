@@ -1,6 +1,7 @@
 // The g6d-service binary as a separate process on a real UDP multicast bus (udpm on
 // 239.255.76.67, ttl=0 so nothing leaves the host, a port unique to this test run):
-// cache loading with a refused file, answers, two services on one bus, SIGTERM shutdown.
+// cache loading with a refused file, answers, two services on one bus, SIGTERM shutdown,
+// the tracking flags and YAML section (and bad values refused before anything starts).
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -19,6 +20,7 @@
 #include <vector>
 
 #include "eval/metrics.h"
+#include "process_util.h"
 #include "service_test_util.h"
 #include "templates/cache.h"
 #include "test_util.h"
@@ -330,6 +332,100 @@ TEST_F(ServiceProcessTest, TwoServicesOnOneBusAnswerOnlyTheirOwnFrames) {
     ASSERT_TRUE(exit_status.has_value()) << services[c]->Log();
     EXPECT_TRUE(WIFEXITED(*exit_status) && WEXITSTATUS(*exit_status) == 0) << services[c]->Log();
     EXPECT_EQ(services[c]->Log().find("ThreadSanitizer"), std::string::npos) << services[c]->Log();
+  }
+}
+
+// Bad tracking options stop the binary before it touches the bus, with exit code 2 (CLI11's
+// own code for a value it refuses) and a message naming the option.
+TEST_F(ServiceProcessTest, RefusesBadTrackingOptionsWithAClearMessage) {
+  ASSERT_TRUE(std::filesystem::exists(kServiceBinary)) << kServiceBinary;
+  const std::string config = " --config " + *dir_ + "/service.yaml";
+  struct Case {
+    std::string arguments, words;
+  };
+  std::ofstream(*dir_ + "/bad_tracking.yaml") << "templates: " << *dir_ << "/caches\n"
+                                              << "tracking: {max_age: 1.0}\n";
+  std::ofstream(*dir_ + "/bad_overlap.yaml") << "templates: " << *dir_ << "/caches\n"
+                                             << "tracking: {min_overlap: 2}\n";
+  const std::vector<Case> cases = {
+      {config + " --tracking maybe", "--tracking"},
+      {config + " --track-constant-velocity sometimes", "--track-constant-velocity"},
+      {config + " --track-loss-score -1",
+       "bad options: tracking: TrackerOptions.loss_score must be > 0 (got -1)"},
+      {config + " --redetect-every -3",
+       "bad options: tracking: TrackerOptions.redetect_every must be >= 0 (got -3)"},
+      {config + " --track-max-age-s 0", "TrackerOptions.max_age_s must be > 0 (got 0)"},
+      {" --config " + *dir_ + "/bad_tracking.yaml", "unknown key 'tracking.max_age'"},
+      {" --config " + *dir_ + "/bad_overlap.yaml", "TrackerOptions.min_overlap must be in [0, 1]"},
+  };
+  for (const Case& bad : cases) {
+    SCOPED_TRACE(bad.arguments);
+    const test::CommandResult result = test::RunCommand(kServiceBinary + bad.arguments);
+    EXPECT_NE(result.exit_code, 0) << result.output;
+    EXPECT_NE(result.exit_code, -1) << result.output;
+    EXPECT_NE(result.output.find(bad.words), std::string::npos) << result.output;
+  }
+}
+
+// --tracking on|off wins over the YAML file's `tracking: {enabled: ...}` either way, and the
+// service says at start which it runs: with tracking off the same frame twice is detected
+// twice without a track; with it on the second frame continues the first one's track.
+TEST_F(ServiceProcessTest, TrackingFlagWinsOverTheYamlSection) {
+  ASSERT_TRUE(std::filesystem::exists(kServiceBinary)) << kServiceBinary;
+  const std::string url = BusUrl(2);
+  lcm::LCM lcm(url);
+  ASSERT_TRUE(lcm.good()) << url;
+  test::ServiceListener listener(&lcm, "G6D_POSES", "G6D_STATUS");
+  LcmHandleThread pump(&lcm);
+  for (const bool tracking : {false, true}) {
+    SCOPED_TRACE(tracking ? "--tracking on" : "--tracking off");
+    const std::string yaml = *dir_ + (tracking ? "/tracking_off.yaml" : "/tracking_on.yaml");
+    std::ifstream base(*dir_ + "/service.yaml");
+    std::ofstream(yaml) << base.rdbuf() << "tracking:\n  enabled: " << (tracking ? "false" : "true")
+                        << "\n  redetect_every: 5\n";
+    ServiceProcess service(
+        {"--config", yaml, "--lcm-url", url, "--tracking", tracking ? "on" : "off"},
+        *dir_ + (tracking ? "/tracking_on.log" : "/tracking_off.log"));
+    ASSERT_TRUE(service.started());
+    const auto status = WaitUntilUp(&listener);
+    ASSERT_TRUE(status.has_value()) << service.Log();
+    EXPECT_EQ(status->tracking, tracking ? 1 : 0);
+    rgbd_frame_t frame = test::MakeRgbdFrame(scene_->views[0], 1, test::kBoxId);
+    std::vector<pose_estimate_t> estimates;
+    for (int i = 0; i < 2; ++i) {
+      frame.seq = 1 + i;
+      frame.utime += 33000 * i;
+      ASSERT_EQ(lcm.publish("G6D_RGBD", &frame), 0);
+      const auto answer = listener.answers.Pop(seconds(60));
+      ASSERT_TRUE(answer.has_value()) << service.Log();
+      ASSERT_EQ(answer->num_estimates, 1);
+      ASSERT_EQ(answer->estimates[0].status, +pose_estimate_t::STATUS_OK)
+          << answer->estimates[0].message;
+      estimates.push_back(answer->estimates[0]);
+    }
+    if (tracking) {
+      EXPECT_EQ(estimates[0].mode, +pose_estimate_t::MODE_DETECTED);
+      EXPECT_GT(estimates[0].track_id, 0);
+      EXPECT_EQ(estimates[1].mode, +pose_estimate_t::MODE_TRACKED);
+      EXPECT_EQ(estimates[1].track_id, estimates[0].track_id);
+      EXPECT_EQ(estimates[1].frames_since_detection, 1);
+    } else {
+      for (const pose_estimate_t& estimate : estimates) {
+        EXPECT_EQ(estimate.mode, +pose_estimate_t::MODE_DETECTED);
+        EXPECT_EQ(estimate.track_id, -1);
+        EXPECT_EQ(estimate.frames_since_detection, 0);
+      }
+    }
+    ExpectCleanExitAfterSigterm(&service, 2.0);
+    const std::string log = service.Log();
+    EXPECT_NE(log.find(tracking ? "tracking on: max age 1 s" : "tracking off"), std::string::npos)
+        << log;
+    if (tracking) {
+      EXPECT_NE(log.find("re-detect every 5 frames"), std::string::npos) << log;
+    }
+    // The next service's first status must not be mistaken for a late one of this one.
+    while (listener.statuses.Pop(std::chrono::milliseconds(300))) {
+    }
   }
 }
 

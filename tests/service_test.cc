@@ -1,6 +1,8 @@
 // g6d::Service in-process over a real LCM bus (memq): poses end to end, every kind of bad
 // input interleaved with good frames, mailbox drops, stale frames, shutdown; an object cut
-// by the image border, the runner-up and appearance fields, and MakePoseEstimate.
+// by the image border, the runner-up and appearance fields, MakePoseEstimate; tracking
+// (issue 14): tracks that continue, are lost and re-detected, start and expire, and
+// tracking off answering exactly as EstimatePose.
 #include "service/service.h"
 
 #include <gtest/gtest.h>
@@ -12,11 +14,12 @@
 #include <string>
 #include <vector>
 
-#include "wire/bad_frames.h"
 #include "core/se3.h"
 #include "eval/metrics.h"
-#include "wire/answer.h"
 #include "service_test_util.h"
+#include "wire/answer.h"
+#include "wire/bad_frames.h"
+#include "wire/names.h"
 
 namespace g6d {
 namespace {
@@ -45,6 +48,10 @@ void ExpectConsistentExtraFields(const pose_estimate_t& estimate) {
     EXPECT_FALSE(estimate.ambiguous);
     EXPECT_FALSE(estimate.has_runner_up);
     EXPECT_FALSE(estimate.appearance_valid);
+    // A failure belongs to no track.
+    EXPECT_EQ(estimate.mode, +pose_estimate_t::MODE_DETECTED);
+    EXPECT_EQ(estimate.track_id, -1);
+    EXPECT_EQ(estimate.frames_since_detection, 0);
   }
   if (estimate.has_runner_up) {
     EXPECT_TRUE(AllFinite(estimate.runner_up_position, 3));
@@ -134,7 +141,13 @@ TEST_F(ServiceTest, AnswersWithPosesWithinAddTenthDiameter) {
                                  image_t::COMPRESSION_PNG, image_t::COMPRESSION_JPEG};
   for (int i = 0; i < kNumViews; ++i) {
     const test::SyntheticView& view = scene_->views[i];
-    Publish(test::MakeRgbdFrame(view, 100 + i, test::kBoxId, "cam0", compressions[i % 4]));
+    rgbd_frame_t frame =
+        test::MakeRgbdFrame(view, 100 + i, test::kBoxId, "cam0", compressions[i % 4]);
+    // Unrelated views: 2 s apart on the capture clock, more than the tracks' max age, so
+    // each is a detection (a track continued from an unrelated pose can settle on a
+    // geometric symmetry of the box; the tracking tests below move it as a camera would).
+    frame.utime += i * 2000000LL;
+    Publish(frame);
     const pose_array_t answer = NextAnswer();
     EXPECT_EQ(answer.seq, 100 + i);
     EXPECT_EQ(answer.camera_id, "cam0");
@@ -167,10 +180,14 @@ TEST_F(ServiceTest, AnswersWithPosesWithinAddTenthDiameter) {
     EXPECT_TRUE(estimate.appearance_valid);
     EXPECT_GT(estimate.appearance_agreement, 0.5);
     ExpectConsistentExtraFields(estimate);
+    // Tracking is on by default: each frame starts a new track (the last one expired).
+    EXPECT_EQ(estimate.mode, +pose_estimate_t::MODE_DETECTED);
+    EXPECT_EQ(estimate.track_id, i + 1);
+    EXPECT_EQ(estimate.frames_since_detection, 0);
     // Every named timing is there, and end to end covers decode + solve.
     ASSERT_EQ(answer.timing_names.size(), answer.timing_s.size());
     for (const char* name : {"queue_wait", "decode", "features", "match", "pnp", "observable",
-                             "icp", "mhpo", "finalists", "solve", "publish"}) {
+                             "icp", "mhpo", "finalists", "track", "solve", "publish"}) {
       EXPECT_NE(std::find(answer.timing_names.begin(), answer.timing_names.end(), name),
                 answer.timing_names.end())
           << name;
@@ -427,6 +444,307 @@ TEST_F(ServiceTest, StopWhileSolvingAbandonsOrFinishesAndJoins) {
   service_->Stop();  // idempotent
 }
 
+// ---- Tracking (issue 14) --------------------------------------------------------------------
+
+// Frames of a 30 Hz camera, on the capture clock the tracker ages its tracks with.
+constexpr int64_t kStartUtime = 1700000000000000;
+constexpr int64_t kFramePeriodUs = 33000;
+
+// `pose` turned by `angle_rad` about `axis` (camera frame) around the object's origin, then
+// moved by `translation_m` (camera frame).
+Eigen::Isometry3d Moved(const Eigen::Isometry3d& pose, const Eigen::Vector3d& translation_m,
+                        double angle_rad, const Eigen::Vector3d& axis) {
+  Eigen::Isometry3d moved = pose;
+  moved.linear() =
+      Eigen::AngleAxisd(angle_rad, axis.normalized()).toRotationMatrix() * pose.linear();
+  moved.translation() += translation_m;
+  return moved;
+}
+
+// The box 0.6 m ahead, left of the image centre, seen from a textured side.
+Eigen::Isometry3d BoxPose() {
+  return MakePose(
+      Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.3, 1.0, 0.2).normalized()).toRotationMatrix(),
+      {-0.06, 0.0, 0.6});
+}
+
+// The step between consecutive frames of a moving box: 2 mm and 1 degree.
+Eigen::Isometry3d SmallStep(const Eigen::Isometry3d& pose) {
+  return Moved(pose, {0.002, 0.0, 0.0}, 1.0 * M_PI / 180.0, {0.2, 1.0, 0.1});
+}
+
+// One frame of `view` at `utime`.
+rgbd_frame_t FrameAt(const test::SyntheticView& view, int64_t seq, int64_t utime) {
+  rgbd_frame_t frame = test::MakeRgbdFrame(view, seq, test::kBoxId);
+  frame.utime = utime;
+  return frame;
+}
+
+// One frame of two boxes that do not overlap in the image: `first` as label 1 (gt_index 0)
+// and `second` pasted over its background as label 2 (gt_index 1).
+rgbd_frame_t TwoBoxFrameAt(const test::SyntheticView& first, const test::SyntheticView& second,
+                           int64_t seq, int64_t utime) {
+  test::SyntheticView both = first;
+  second.rgb.copyTo(both.rgb, second.mask);
+  second.depth.copyTo(both.depth, second.mask);
+  rgbd_frame_t frame = FrameAt(both, seq, utime);
+  cv::Mat labels(first.mask.size(), CV_8U, cv::Scalar(0));
+  labels.setTo(1, first.mask > 0);
+  labels.setTo(2, second.mask > 0);
+  frame.labels = EncodeImage(labels, image_t::FORMAT_LABEL_U8, image_t::COMPRESSION_ZSTD);
+  instance_t instance = frame.instances[0];
+  instance.label = 2;
+  instance.gt_index = 1;
+  frame.instances.push_back(instance);
+  frame.num_instances = 2;
+  return frame;
+}
+
+class ServiceTrackingTest : public ServiceTest {
+ protected:
+  // The box at `cam_from_object`, with the scene's depth noise (seed per view).
+  test::SyntheticView Render(const Eigen::Isometry3d& cam_from_object, uint64_t seed) {
+    if (!renderer_) renderer_ = std::make_unique<GlRenderer>(scene_->mesh);
+    test::SyntheticOptions options;
+    options.seed = seed;
+    return test::RenderSyntheticView(renderer_.get(), scene_->mesh, test::kServiceCamera,
+                                     cam_from_object, options);
+  }
+
+  // The single OK estimate of the answer to `frame`, checked against the ground truth
+  // (ADD < 0.1 d).
+  pose_estimate_t Solve(const rgbd_frame_t& frame, const Eigen::Isometry3d& truth) {
+    Publish(frame);
+    const pose_array_t answer = NextAnswer();
+    EXPECT_EQ(answer.seq, frame.seq);
+    EXPECT_EQ(answer.num_estimates, 1);
+    if (answer.num_estimates != 1) return pose_estimate_t{};
+    const pose_estimate_t& estimate = answer.estimates[0];
+    EXPECT_EQ(estimate.status, +pose_estimate_t::STATUS_OK) << estimate.message;
+    ExpectNear(estimate, truth);
+    return estimate;
+  }
+
+  static void ExpectNear(const pose_estimate_t& estimate, const Eigen::Isometry3d& truth) {
+    EXPECT_LT(ComputeAdd(test::PoseOf(estimate), truth, scene_->mesh.vertices),
+              0.1 * scene_->bank.diameter_m)
+        << "mode " << EstimateModeName(estimate.mode) << ", S_A " << estimate.score;
+    ExpectConsistentExtraFields(estimate);
+  }
+
+  std::unique_ptr<GlRenderer> renderer_;
+};
+
+TEST_F(ServiceTrackingTest, TrackContinuesOverConsecutiveFrames) {
+  StartService(Options("track_continues"));
+  Eigen::Isometry3d truth = BoxPose();
+  const pose_estimate_t first = Solve(FrameAt(Render(truth, 41), 1, kStartUtime), truth);
+  EXPECT_EQ(first.mode, +pose_estimate_t::MODE_DETECTED);
+  EXPECT_GT(first.track_id, 0);
+  EXPECT_EQ(first.frames_since_detection, 0);
+  for (int frame = 1; frame <= 2; ++frame) {
+    SCOPED_TRACE("frame " + std::to_string(frame + 1));
+    truth = SmallStep(truth);
+    const pose_estimate_t next = Solve(
+        FrameAt(Render(truth, 41 + frame), 1 + frame, kStartUtime + frame * kFramePeriodUs), truth);
+    EXPECT_EQ(next.mode, +pose_estimate_t::MODE_TRACKED);
+    EXPECT_EQ(next.track_id, first.track_id);
+    EXPECT_EQ(next.frames_since_detection, frame);
+    EXPECT_GT(next.solve_time_s, 0.0);
+  }
+  const ServiceCounters counters = service_->Counters();
+  EXPECT_EQ(counters.answers_detected, 1);
+  EXPECT_EQ(counters.answers_tracked, 2);
+  EXPECT_EQ(counters.answers_redetected, 0);
+  const service_status_t status = service_->MakeStatus();
+  EXPECT_EQ(status.tracking, 1);
+  EXPECT_EQ(status.answers_detected, 1);
+  EXPECT_EQ(status.answers_tracked, 2);
+  EXPECT_EQ(status.answers_redetected, 0);
+}
+
+TEST_F(ServiceTrackingTest, LostTrackIsRedetectedWithTheSameId) {
+  StartService(Options("track_lost"));
+  const Eigen::Isometry3d truth = BoxPose();
+  const pose_estimate_t first = Solve(FrameAt(Render(truth, 51), 1, kStartUtime), truth);
+  ASSERT_GT(first.track_id, 0);
+  // Turned 90 degrees in place about the line of sight: the mask still overlaps the track's
+  // silhouette, but the last pose is far from the answer.
+  const Eigen::Isometry3d turned =
+      Moved(truth, Eigen::Vector3d::Zero(), M_PI / 2, truth.translation());
+  const pose_estimate_t second =
+      Solve(FrameAt(Render(turned, 52), 2, kStartUtime + kFramePeriodUs), turned);
+  EXPECT_EQ(second.mode, +pose_estimate_t::MODE_REDETECTED);
+  EXPECT_EQ(second.track_id, first.track_id);
+  EXPECT_EQ(second.frames_since_detection, 0);
+  EXPECT_EQ(service_->Counters().answers_redetected, 1);
+}
+
+TEST_F(ServiceTrackingTest, NewInstanceStartsItsOwnTrack) {
+  StartService(Options("track_new"));
+  Eigen::Isometry3d first_truth = BoxPose();
+  const pose_estimate_t alone =
+      Solve(FrameAt(Render(first_truth, 61), 1, kStartUtime), first_truth);
+  ASSERT_GT(alone.track_id, 0);
+  // A second box appears to the right, apart from the first in the image.
+  Eigen::Isometry3d second_truth = MakePose(
+      Eigen::AngleAxisd(-0.9, Eigen::Vector3d(1.0, 0.4, 0.3).normalized()).toRotationMatrix(),
+      {0.12, 0.02, 0.65});
+  for (int frame = 1; frame <= 2; ++frame) {
+    SCOPED_TRACE("frame " + std::to_string(frame + 1));
+    first_truth = SmallStep(first_truth);
+    if (frame > 1) second_truth = SmallStep(second_truth);
+    const test::SyntheticView first_view = Render(first_truth, 61 + frame);
+    const test::SyntheticView second_view = Render(second_truth, 71 + frame);
+    cv::Mat shared;
+    cv::bitwise_and(first_view.mask, second_view.mask, shared);
+    ASSERT_EQ(cv::countNonZero(shared), 0) << "the boxes should not overlap in the image";
+    Publish(
+        TwoBoxFrameAt(first_view, second_view, 1 + frame, kStartUtime + frame * kFramePeriodUs));
+    const pose_array_t answer = NextAnswer();
+    ASSERT_EQ(answer.num_estimates, 2);
+    const pose_estimate_t& first = answer.estimates[0];
+    const pose_estimate_t& second = answer.estimates[1];
+    ASSERT_EQ(first.status, +pose_estimate_t::STATUS_OK) << first.message;
+    ASSERT_EQ(second.status, +pose_estimate_t::STATUS_OK) << second.message;
+    ExpectNear(first, first_truth);
+    ExpectNear(second, second_truth);
+    // The first box keeps its track; the second starts one in its first frame and keeps
+    // it in the next.
+    EXPECT_EQ(first.mode, +pose_estimate_t::MODE_TRACKED);
+    EXPECT_EQ(first.track_id, alone.track_id);
+    EXPECT_EQ(first.frames_since_detection, frame);
+    EXPECT_GT(second.track_id, 0);
+    EXPECT_NE(second.track_id, alone.track_id);
+    if (frame == 1) {
+      EXPECT_EQ(second.mode, +pose_estimate_t::MODE_DETECTED);
+      EXPECT_EQ(second.frames_since_detection, 0);
+    } else {
+      EXPECT_EQ(second.mode, +pose_estimate_t::MODE_TRACKED);
+      EXPECT_EQ(second.frames_since_detection, 1);
+    }
+  }
+}
+
+TEST_F(ServiceTrackingTest, TrackExpiresAfterMaxAge) {
+  ServiceOptions options = Options("track_expiry");
+  options.tracking.max_age_s = 0.5;
+  StartService(options);
+  const Eigen::Isometry3d truth = BoxPose();
+  const test::SyntheticView view = Render(truth, 81);
+  const pose_estimate_t first = Solve(FrameAt(view, 1, kStartUtime), truth);
+  ASSERT_GT(first.track_id, 0);
+  // The same frame 0.4 s later (within max_age_s) continues the track ...
+  const pose_estimate_t within = Solve(FrameAt(view, 2, kStartUtime + 400000), truth);
+  EXPECT_EQ(within.mode, +pose_estimate_t::MODE_TRACKED);
+  EXPECT_EQ(within.track_id, first.track_id);
+  // ... and 0.6 s after that answer the track is gone: a new one starts.
+  const pose_estimate_t after = Solve(FrameAt(view, 3, kStartUtime + 1000000), truth);
+  EXPECT_EQ(after.mode, +pose_estimate_t::MODE_DETECTED);
+  EXPECT_GT(after.track_id, first.track_id);
+  EXPECT_EQ(after.frames_since_detection, 0);
+}
+
+TEST_F(ServiceTrackingTest, PeriodicRedetectionKeepsTheTrack) {
+  ServiceOptions options = Options("track_periodic");
+  options.tracking.redetect_every = 2;
+  StartService(options);
+  Eigen::Isometry3d truth = BoxPose();
+  const pose_estimate_t first = Solve(FrameAt(Render(truth, 85), 1, kStartUtime), truth);
+  ASSERT_GT(first.track_id, 0);
+  // Two tracked answers, then the due re-detection (the tracked pose is fine: the answer is
+  // the better of the two by S), then tracking again from 0.
+  const int expected_mode[4] = {pose_estimate_t::MODE_TRACKED, pose_estimate_t::MODE_TRACKED,
+                                pose_estimate_t::MODE_REDETECTED, pose_estimate_t::MODE_TRACKED};
+  const int expected_frames[4] = {1, 2, 0, 1};
+  for (int frame = 1; frame <= 4; ++frame) {
+    SCOPED_TRACE("frame " + std::to_string(frame + 1));
+    truth = SmallStep(truth);
+    const pose_estimate_t next = Solve(
+        FrameAt(Render(truth, 85 + frame), 1 + frame, kStartUtime + frame * kFramePeriodUs), truth);
+    EXPECT_EQ(next.mode, expected_mode[frame - 1]);
+    EXPECT_EQ(next.track_id, first.track_id);
+    EXPECT_EQ(next.frames_since_detection, expected_frames[frame - 1]);
+  }
+}
+
+// Every field but the solver's wall time, bit for bit.
+void ExpectSameEstimate(const pose_estimate_t& got, const pose_estimate_t& expected) {
+  EXPECT_EQ(got.object_id, expected.object_id);
+  EXPECT_EQ(got.label, expected.label);
+  EXPECT_EQ(got.gt_index, expected.gt_index);
+  EXPECT_EQ(got.status, expected.status);
+  EXPECT_EQ(got.message, expected.message);
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(got.position[i], expected.position[i]) << i;
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(got.orientation[i], expected.orientation[i]) << i;
+  EXPECT_EQ(got.score, expected.score);
+  EXPECT_EQ(got.confidence, expected.confidence);
+  EXPECT_EQ(got.iou, expected.iou);
+  EXPECT_EQ(got.depth_residual, expected.depth_residual);
+  EXPECT_EQ(got.hypotheses, expected.hypotheses);
+  EXPECT_EQ(got.truncated, expected.truncated);
+  EXPECT_EQ(got.ambiguous, expected.ambiguous);
+  EXPECT_EQ(got.has_runner_up, expected.has_runner_up);
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(got.runner_up_position[i], expected.runner_up_position[i]);
+  for (int i = 0; i < 4; ++i)
+    EXPECT_EQ(got.runner_up_orientation[i], expected.runner_up_orientation[i]);
+  EXPECT_EQ(got.runner_up_score, expected.runner_up_score);
+  EXPECT_EQ(got.appearance_valid, expected.appearance_valid);
+  EXPECT_EQ(got.appearance_agreement, expected.appearance_agreement);
+  EXPECT_EQ(got.cut_short, expected.cut_short);
+  EXPECT_EQ(got.mode, expected.mode);
+  EXPECT_EQ(got.track_id, expected.track_id);
+  EXPECT_EQ(got.frames_since_detection, expected.frames_since_detection);
+}
+
+TEST_F(ServiceTrackingTest, TrackingOffAnswersExactlyAsEstimatePose) {
+  ServiceOptions options = Options("track_off");
+  options.tracking.enabled = false;
+  StartService(options);
+  // Frames that tracking on would track: with it off each is solved from scratch, and
+  // the answer is EstimatePose's on the decoded frame, whatever came before.
+  ThreadPool pool(1);
+  Eigen::Isometry3d truth = BoxPose();
+  for (int frame = 0; frame < 3; ++frame) {
+    SCOPED_TRACE("frame " + std::to_string(frame));
+    const rgbd_frame_t message =
+        FrameAt(Render(truth, 91 + frame), 1 + frame, kStartUtime + frame * kFramePeriodUs);
+    const pose_estimate_t got = Solve(message, truth);
+    const DecodedFrame decoded = DecodeFrame(message, options.limits);
+    const PoseResult direct =
+        EstimatePose(decoded.frame, Instance{test::kBoxId, decoded.instances[0].mask}, scene_->bank,
+                     options.solver, &pool);
+    const pose_estimate_t expected = MakePoseEstimate(decoded.instances[0], direct);
+    ExpectSameEstimate(got, expected);
+    EXPECT_EQ(got.mode, +pose_estimate_t::MODE_DETECTED);
+    EXPECT_EQ(got.track_id, -1);
+    EXPECT_EQ(got.frames_since_detection, 0);
+    truth = SmallStep(truth);
+  }
+  const service_status_t status = service_->MakeStatus();
+  EXPECT_EQ(status.tracking, 0);
+  EXPECT_EQ(status.answers_detected, 3);
+  EXPECT_EQ(status.answers_tracked + status.answers_redetected, 0);
+}
+
+// With tracking on, a detection is EstimatePose's answer too (tracking only adds the
+// track's fields).
+TEST_F(ServiceTrackingTest, DetectionWithTrackingOnIsEstimatePoseAnswer) {
+  StartService(Options("track_detect"));
+  ThreadPool pool(1);
+  const Eigen::Isometry3d truth = BoxPose();
+  const rgbd_frame_t message = FrameAt(Render(truth, 95), 1, kStartUtime);
+  const pose_estimate_t got = Solve(message, truth);
+  const DecodedFrame decoded = DecodeFrame(message, options_.limits);
+  pose_estimate_t expected = MakePoseEstimate(
+      decoded.instances[0],
+      EstimatePose(decoded.frame, Instance{test::kBoxId, decoded.instances[0].mask}, scene_->bank,
+                   options_.solver, &pool));
+  expected.track_id = got.track_id;
+  ExpectSameEstimate(got, expected);
+  EXPECT_GT(got.track_id, 0);
+}
+
 // ---- Building estimates -------------------------------------------------------------------
 
 // An encode/decode round trip of one estimate, as a subscriber receives it.
@@ -512,6 +830,54 @@ TEST(MakePoseEstimate, FailuresCarryNoFlags) {
       MakeFailedEstimate(BoxInstance(), pose_estimate_t::STATUS_BAD_INPUT, "empty mask"));
   EXPECT_EQ(refused.status, +pose_estimate_t::STATUS_BAD_INPUT);
   ExpectConsistentExtraFields(refused);
+}
+
+TEST(MakeTrackedEstimate, CopiesModeTrackAndFramesSinceDetection) {
+  TrackedAnswer answer;
+  answer.result.success = true;
+  answer.result.termination = Termination::kConverged;
+  answer.result.score = 0.07;
+  answer.result.stages.total_ms = 4.0;
+  answer.mode = AnswerMode::kTracked;
+  answer.track_id = 7;
+  answer.frames_since_detection = 3;
+  answer.track_ms = 5.0;
+  pose_estimate_t estimate = ThroughLcmBytes(MakeTrackedEstimate(BoxInstance(), answer));
+  ASSERT_EQ(estimate.status, +pose_estimate_t::STATUS_OK);
+  EXPECT_EQ(estimate.mode, +pose_estimate_t::MODE_TRACKED);
+  EXPECT_EQ(estimate.track_id, 7);
+  EXPECT_EQ(estimate.frames_since_detection, 3);
+  EXPECT_DOUBLE_EQ(estimate.solve_time_s, 0.005);
+  // A re-detection took TrackPose's time and the full solver's.
+  answer.mode = AnswerMode::kRedetected;
+  answer.frames_since_detection = 0;
+  answer.detect_ms = 20.0;
+  estimate = ThroughLcmBytes(MakeTrackedEstimate(BoxInstance(), answer));
+  EXPECT_EQ(estimate.mode, +pose_estimate_t::MODE_REDETECTED);
+  EXPECT_EQ(estimate.track_id, 7);
+  EXPECT_DOUBLE_EQ(estimate.solve_time_s, 0.025);
+  // A detection is MakePoseEstimate's, plus the track.
+  answer.mode = AnswerMode::kDetected;
+  answer.track_id = 8;
+  estimate = ThroughLcmBytes(MakeTrackedEstimate(BoxInstance(), answer));
+  EXPECT_EQ(estimate.mode, +pose_estimate_t::MODE_DETECTED);
+  EXPECT_EQ(estimate.track_id, 8);
+  EXPECT_DOUBLE_EQ(estimate.solve_time_s, 0.004);
+}
+
+TEST(MakeTrackedEstimate, FailureBelongsToNoTrack) {
+  TrackedAnswer answer;
+  answer.result.termination = Termination::kNoHypothesis;
+  answer.mode = AnswerMode::kRedetected;
+  answer.track_id = 4;
+  answer.frames_since_detection = 2;
+  const pose_estimate_t estimate = ThroughLcmBytes(MakeTrackedEstimate(BoxInstance(), answer));
+  EXPECT_EQ(estimate.status, +pose_estimate_t::STATUS_NO_SOLUTION);
+  ExpectConsistentExtraFields(estimate);
+  // An answer without tracking: detected, no track.
+  const pose_estimate_t plain = ThroughLcmBytes(MakePoseEstimate(BoxInstance(), PoseResult()));
+  EXPECT_EQ(plain.mode, +pose_estimate_t::MODE_DETECTED);
+  EXPECT_EQ(plain.track_id, -1);
 }
 
 TEST(Percentile, NearestRank) {

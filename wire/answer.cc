@@ -28,6 +28,10 @@ pose_estimate_t EstimateFor(const DecodedInstance& instance) {
   // quaternion is the identity rather than all zeros so that no message ever carries a
   // quaternion a subscriber cannot normalize.
   estimate.runner_up_orientation[0] = 1.0;
+  // Not an answer of a track until a tracked answer says so.
+  estimate.mode = pose_estimate_t::MODE_DETECTED;
+  estimate.track_id = -1;
+  estimate.frames_since_detection = 0;
   return estimate;
 }
 
@@ -84,6 +88,31 @@ pose_estimate_t MakePoseEstimate(const DecodedInstance& instance, const PoseResu
   }
   estimate.appearance_valid = result.appearance_valid;
   if (result.appearance_valid) estimate.appearance_agreement = result.appearance_agreement;
+  return estimate;
+}
+
+int8_t ModeOnWire(AnswerMode mode) {
+  switch (mode) {
+    case AnswerMode::kDetected:
+      return pose_estimate_t::MODE_DETECTED;
+    case AnswerMode::kTracked:
+      return pose_estimate_t::MODE_TRACKED;
+    case AnswerMode::kRedetected:
+      return pose_estimate_t::MODE_REDETECTED;
+  }
+  return pose_estimate_t::MODE_DETECTED;
+}
+
+pose_estimate_t MakeTrackedEstimate(const DecodedInstance& instance, const TrackedAnswer& answer) {
+  pose_estimate_t estimate = MakePoseEstimate(instance, answer.result);
+  // An answer of a track ran TrackPose and maybe the full solver too: its solver time is
+  // both (answer.result.stages times only the one whose pose was kept).
+  if (answer.mode != AnswerMode::kDetected)
+    estimate.solve_time_s = (answer.track_ms + answer.detect_ms) * 1e-3;
+  if (estimate.status != pose_estimate_t::STATUS_OK) return estimate;
+  estimate.mode = ModeOnWire(answer.mode);
+  estimate.track_id = answer.track_id;
+  estimate.frames_since_detection = answer.frames_since_detection;
   return estimate;
 }
 

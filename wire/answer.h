@@ -11,8 +11,9 @@
 #include "g6d/pose_array_t.hpp"
 #include "g6d/pose_estimate_t.hpp"
 #include "g6d/rgbd_frame_t.hpp"
-#include "wire/frame_codec.h"
 #include "solver/pipeline.h"
+#include "track/tracker.h"
+#include "wire/frame_codec.h"
 
 namespace g6d {
 
@@ -41,10 +42,21 @@ using Timings = std::vector<std::pair<std::string, double>>;
 /// truncated and ambiguous flags, the runner-up (pose and S, when has_runner_up) and the
 /// appearance agreement (when appearance_valid). A failure carries only the status,
 /// message, hypotheses and solver time: flags false, numbers 0, identity quaternions.
+/// Mode MODE_DETECTED, track_id -1, frames_since_detection 0 (an answer without tracking).
 pose_estimate_t MakePoseEstimate(const DecodedInstance& instance, const PoseResult& result);
 
+/// MakePoseEstimate of `answer.result`, with the answer's mode, track_id and
+/// frames_since_detection (Tracker::Update sets them); the solver time of an answer of a
+/// track is TrackPose's plus the full solver's (when it ran). A failed estimate keeps
+/// MODE_DETECTED, track_id -1 and frames_since_detection 0 whatever the answer says.
+pose_estimate_t MakeTrackedEstimate(const DecodedInstance& instance, const TrackedAnswer& answer);
+
+/// pose_estimate_t::MODE_* of a mode.
+int8_t ModeOnWire(AnswerMode mode);
+
 /// An estimate that carries only a failure: identity pose, score 2, confidence 0, no
-/// runner-up (identity quaternion, S 0), flags false, appearance agreement 0.
+/// runner-up (identity quaternion, S 0), flags false, appearance agreement 0, mode
+/// MODE_DETECTED, track_id -1, frames_since_detection 0.
 pose_estimate_t MakeFailedEstimate(const DecodedInstance& instance, int8_t status,
                                    const std::string& message);
 

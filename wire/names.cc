@@ -61,6 +61,18 @@ std::string EstimateStatusName(int8_t status) {
   return Unknown(status);
 }
 
+std::string EstimateModeName(int8_t mode) {
+  switch (mode) {
+    case pose_estimate_t::MODE_DETECTED:
+      return "detected";
+    case pose_estimate_t::MODE_TRACKED:
+      return "tracked";
+    case pose_estimate_t::MODE_REDETECTED:
+      return "redetected";
+  }
+  return Unknown(mode);
+}
+
 std::string FrameStatusName(int8_t status) {
   switch (status) {
     case pose_array_t::STATUS_OK:

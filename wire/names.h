@@ -18,6 +18,10 @@ std::string CompressionName(int8_t compression);
 /// pose_estimate_t status, or "unknown(<value>)".
 std::string EstimateStatusName(int8_t status);
 
+/// "detected", "tracked", "redetected" of a pose_estimate_t mode (as AnswerMode's names,
+/// track/tracker.h), or "unknown(<value>)".
+std::string EstimateModeName(int8_t mode);
+
 /// "ok", "bad_frame" of a pose_array_t status, or "unknown(<value>)".
 std::string FrameStatusName(int8_t status);
 
