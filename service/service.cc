@@ -43,6 +43,10 @@ const ServiceOptions& Checked(const ServiceOptions& options) {
 
 }  // namespace
 
+// Background re-detections waiting at most, and their threads' nice increment.
+constexpr size_t kBackgroundQueue = 4;
+constexpr int kBackgroundNice = 10;
+
 Service::Service(const ServiceOptions& options, TemplateStore store, lcm::LCM* lcm)
     : options_(Checked(options)), store_(std::move(store)), lcm_(lcm), tracker_(options_.tracking) {
   if (lcm_ == nullptr || !lcm_->good()) G6D_THROW("Service: the LCM instance is not usable");
@@ -52,6 +56,12 @@ Service::Service(const ServiceOptions& options, TemplateStore store, lcm::LCM* l
   solver_options_.stop_requested = &stop_solves_;
   service_name_ = options_.name.empty() ? options_.input_channel : options_.name;
   pool_ = std::make_unique<ThreadPool>(options_.workers);
+  if (options_.tracking.enabled && options_.tracking.background_redetect) {
+    // Its own stop flag (Stop() ends a running check at once); nice +10: the tracked
+    // frames on the pool come first.
+    SolverOptions background = options_.solver;
+    background_ = std::make_unique<BackgroundDetector>(background, kBackgroundQueue, kBackgroundNice);
+  }
 }
 
 Service::~Service() { Stop(); }
@@ -78,9 +88,10 @@ void Service::Start() {
   if (tracking.enabled) {
     spdlog::info(
         "tracking on: max age {} s, min overlap {}, loss score {}, min IoU {}, "
-        "re-detect every {} frames ({} per frame), constant velocity {}",
+        "re-detect every {} frames ({} per frame, {}), constant velocity {}",
         tracking.max_age_s, tracking.min_overlap, tracking.loss_score, tracking.min_iou,
         tracking.redetect_every, tracking.max_periodic_per_frame,
+        tracking.background_redetect ? "in the background" : "in the frame",
         tracking.constant_velocity ? "on" : "off");
   } else {
     spdlog::info("tracking off: every instance is solved by the full solver");
@@ -103,6 +114,7 @@ void Service::Stop() {
   stop_solves_ = true;
   if (mailbox_.Stop()) dropped_.fetch_add(1);
   scheduler_thread_.join();
+  if (background_) background_->Stop();
   // 3. A last status, then the status thread.
   {
     std::lock_guard<std::mutex> status_lock(status_mutex_);
@@ -113,10 +125,13 @@ void Service::Stop() {
   const ServiceCounters counters = Counters();
   spdlog::info(
       "stopped: received {}, processed {}, dropped {}, stale {}, rejected {}; "
-      "answers detected {}, tracked {}, redetected {}",
+      "answers detected {}, tracked {}, redetected {}; background re-detections {} "
+      "(tracks corrected {}, refused when busy {})",
       counters.frames_received, counters.frames_processed, counters.frames_dropped,
       counters.frames_stale, counters.frames_rejected, counters.answers_detected,
-      counters.answers_tracked, counters.answers_redetected);
+      counters.answers_tracked, counters.answers_redetected,
+      background_ ? background_->Completed() : 0, background_corrections_,
+      background_ ? background_->Rejected() : 0);
 }
 
 // ---- LCM thread ---------------------------------------------------------------------------
@@ -281,6 +296,7 @@ void Service::ProcessJob(const Job& job) {
   // Frame time from the capture utime: the tracks age with the camera's clock, not with
   // the time the service takes to get to a frame.
   const double time_s = static_cast<double>(job.header.utime) * 1e-6;
+  ApplyBackgroundDetections();
   const std::vector<TrackPlan> plans = PlanFrame(job, time_s, instances);
   std::vector<TrackedAnswer> answers(solvable.size());
   std::vector<std::optional<pose_estimate_t>> failures(solvable.size());
@@ -292,6 +308,7 @@ void Service::ProcessJob(const Job& job) {
   });
   // An abandoned or failed instance's answer is unsolved: Update leaves its track to expire.
   tracker_.Update(time_s, plans, &answers);
+  SubmitBackgroundDetections(job, instances, answers);
   const Clock::time_point solved = Clock::now();
 
   // Per-stage time of the full solver summed over the frame's instances (the CPU-side
@@ -333,6 +350,41 @@ void Service::ProcessJob(const Job& job) {
   RecordLatency(answer.total_s);
   Publish(options_.output_channel, answer);
   if (options_.publish_rigid_transforms) PublishRigidTransforms(answer);
+}
+
+void Service::ApplyBackgroundDetections() {
+  if (!background_) return;
+  for (const BackgroundDetector::Done& done : background_->TakeFinished()) {
+    const BackgroundDetector::Job& check = done.job;
+    if (tracker_.ApplyConfirmation(check.track_id, check.tracked_pose, check.tracked_score, done.detection,
+                                   check.bank->diameter_m)) {
+      ++background_corrections_;
+      spdlog::info("track {} ({}): a background re-detection ({:.0f} ms) found S {:.3f} where the track had {:.3f}; "
+                   "track corrected",
+                   check.track_id, check.instance.object_id, done.wall_ms, done.detection.score, check.tracked_score);
+    }
+  }
+}
+
+void Service::SubmitBackgroundDetections(const Job& job, const std::vector<Instance>& instances,
+                                         const std::vector<TrackedAnswer>& answers) {
+  if (!background_) return;
+  for (size_t k = 0; k < answers.size(); ++k) {
+    const TrackedAnswer& answer = answers[k];
+    if (!answer.confirm_requested || !answer.result.success) continue;
+    BackgroundDetector::Job check;
+    check.track_id = answer.track_id;
+    // Deep copies: the decoded images may share the message's buffers.
+    check.frame = Frame{job.decoded.frame.camera, job.decoded.frame.rgb.clone(), job.decoded.frame.depth.clone()};
+    check.instance = Instance{instances[k].object_id, instances[k].mask.clone()};
+    check.bank = store_.banks.at(instances[k].object_id);
+    check.tracked_pose = answer.result.cam_from_object;
+    check.tracked_score = answer.result.score;
+    if (!background_->Submit(std::move(check))) {
+      // Busy: this check is skipped; the track is due again after redetect_every frames.
+      tracker_.ApplyConfirmation(answer.track_id, answer.result.cam_from_object, answer.result.score, PoseResult(), 1.0);
+    }
+  }
 }
 
 void Service::CountAnswer(const pose_estimate_t& estimate) {

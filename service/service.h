@@ -34,6 +34,7 @@
 #include "core/stats.h"
 #include "g6d/pose_array_t.hpp"
 #include "g6d/service_status_t.hpp"
+#include "service/background_detector.h"
 #include "service/mailbox.h"
 #include "service/service_options.h"
 #include "service/template_store.h"
@@ -117,6 +118,11 @@ class Service {
   std::vector<TrackPlan> PlanFrame(const Job& job, double time_s,
                                    const std::vector<Instance>& instances);
   void CountAnswer(const pose_estimate_t& estimate);
+  /// Hands finished background re-detections to the tracker (before planning a frame).
+  void ApplyBackgroundDetections();
+  /// Queues the periodic re-detections the frame's answers asked for.
+  void SubmitBackgroundDetections(const Job& job, const std::vector<Instance>& instances,
+                                  const std::vector<TrackedAnswer>& answers);
   bool IsStale(int64_t frame_utime) const;
   void Publish(const std::string& channel, const pose_array_t& answer);
   void Publish(const std::string& channel, const service_status_t& status);
@@ -133,6 +139,9 @@ class Service {
 
   std::unique_ptr<ThreadPool> pool_;
   Tracker tracker_;  ///< the camera's tracks; the scheduler thread's only
+  /// Periodic re-detections of tracks (tracking.background_redetect); null when off.
+  std::unique_ptr<BackgroundDetector> background_;
+  int64_t background_corrections_ = 0;  ///< tracks a background re-detection moved (scheduler thread)
   LatestMailbox<Job> mailbox_;
   lcm::Subscription* subscription_ = nullptr;
 

@@ -120,7 +120,7 @@ int main(int argc, char** argv) {
           ->capture_default_str();
   // Tracking (TrackerOptions). The switches take on|off, so that a YAML "tracking:
   // {enabled: false}" can be turned back on from the command line.
-  std::string tracking_switch = "on", velocity_switch = "on";
+  std::string tracking_switch = "on", velocity_switch = "on", background_switch = "on";
   auto* tracking = app.add_option("--tracking", tracking_switch,
                                   "on|off: solve an instance that continues a track from its "
                                   "last pose (off: every instance gets the full solver)")
@@ -153,6 +153,12 @@ int main(int argc, char** argv) {
   auto* track_velocity =
       app.add_option("--track-constant-velocity", velocity_switch,
                      "on|off: start from the constant-velocity prediction as well")
+          ->check(CLI::IsMember({"on", "off"}))
+          ->capture_default_str();
+  auto* redetect_background =
+      app.add_option("--redetect-background", background_switch,
+                     "on|off: periodic re-detections on a thread of their own while tracking "
+                     "answers the frame (off: in the frame)")
           ->check(CLI::IsMember({"on", "off"}))
           ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
@@ -189,6 +195,7 @@ int main(int argc, char** argv) {
   if (given(redetect_per_frame))
     options.tracking.max_periodic_per_frame = flags.tracking.max_periodic_per_frame;
   if (given(track_velocity)) options.tracking.constant_velocity = velocity_switch == "on";
+  if (given(redetect_background)) options.tracking.background_redetect = background_switch == "on";
   try {
     if (given(input_type_option)) options.input_type = g6d::ParseInputType(input_type);
     if (given(camera_option)) options.adapter.camera = g6d::LoadCameraYaml(camera_file);

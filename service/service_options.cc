@@ -191,7 +191,8 @@ void ParseServiceOptionsYaml(const std::string& text, const std::string& name,
                          {"min_iou", double_field(&o.tracking.min_iou)},
                          {"redetect_every", int_field(&o.tracking.redetect_every)},
                          {"max_periodic_per_frame", int_field(&o.tracking.max_periodic_per_frame)},
-                         {"constant_velocity", bool_field(&o.tracking.constant_velocity)}});
+                         {"constant_velocity", bool_field(&o.tracking.constant_velocity)},
+                         {"background_redetect", bool_field(&o.tracking.background_redetect)}});
              }}});
 }
 

@@ -61,7 +61,13 @@ struct ServiceOptions {
   SolverOptions solver;
   /// Tracking (README, "Tracking"): on by default; `tracking.enabled` false (--tracking
   /// off) answers every instance with the full solver, exactly as without a tracker.
-  TrackerOptions tracking;
+  /// Periodic re-detections run in the background by default (a thread of their own at a
+  /// lower priority, BackgroundDetector): the frame is answered by tracking at once.
+  TrackerOptions tracking = [] {
+    TrackerOptions tracking;
+    tracking.background_redetect = true;
+    return tracking;
+  }();
 
   /// Empty when valid, else names the bad field.
   std::string Check() const;
@@ -78,7 +84,7 @@ struct ServiceOptions {
 /// run_mhpo, mhpo_max_rounds, early_stop_score, reject_border_masks,
 /// min_valid_depth_pixels},
 /// tracking: {enabled, max_age_s, min_overlap, loss_score, min_iou, redetect_every,
-/// max_periodic_per_frame, constant_velocity}. Throws g6d::Error naming the file and key on an
+/// max_periodic_per_frame, constant_velocity, background_redetect}. Throws g6d::Error naming the file and key on an
 /// unknown key, a value of the wrong type or a file that does not parse.
 void LoadServiceOptionsYaml(const std::string& path, ServiceOptions* options);
 

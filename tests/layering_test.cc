@@ -54,7 +54,7 @@ std::string IncludedLayer(const fs::path& root, const fs::path& file, const std:
     for (const std::string& layer : kLayers)
       if (first == layer) return layer;
   }
-  for (const std::string& layer : {"tests", "replay", "tools", "bench"})
+  for (const char* layer : {"tests", "replay", "tools", "bench"})
     if (fs::exists(root / layer / include)) return layer;
   return "";  // a generated header ("g6d/image_t.hpp") or a system one
 }

@@ -8,10 +8,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "core/se3.h"
@@ -648,6 +650,7 @@ TEST_F(ServiceTrackingTest, TrackExpiresAfterMaxAge) {
 TEST_F(ServiceTrackingTest, PeriodicRedetectionKeepsTheTrack) {
   ServiceOptions options = Options("track_periodic");
   options.tracking.redetect_every = 2;
+  options.tracking.background_redetect = false;  // in the frame (the background's test is below)
   StartService(options);
   Eigen::Isometry3d truth = BoxPose();
   const pose_estimate_t first = Solve(FrameAt(Render(truth, 85), 1, kStartUtime), truth);
@@ -666,6 +669,33 @@ TEST_F(ServiceTrackingTest, PeriodicRedetectionKeepsTheTrack) {
     EXPECT_EQ(next.track_id, first.track_id);
     EXPECT_EQ(next.frames_since_detection, expected_frames[frame - 1]);
   }
+}
+
+TEST_F(ServiceTrackingTest, BackgroundRedetectionChecksTheTrackWithoutHoldingTheFrame) {
+  ServiceOptions options = Options("track_background");
+  options.tracking.redetect_every = 2;
+  ASSERT_TRUE(options.tracking.background_redetect);  // the service's default
+  StartService(options);
+  Eigen::Isometry3d truth = BoxPose();
+  const pose_estimate_t first = Solve(FrameAt(Render(truth, 95), 1, kStartUtime), truth);
+  ASSERT_GT(first.track_id, 0);
+  // Every frame is answered by tracking; once the check of the due frame (the third)
+  // has come back, the count since the last detection restarts.
+  int previous = 0;
+  bool restarted = false;
+  for (int frame = 1; frame <= 60 && !restarted; ++frame) {
+    SCOPED_TRACE("frame " + std::to_string(frame + 1));
+    truth = SmallStep(truth);
+    const pose_estimate_t next = Solve(
+        FrameAt(Render(truth, 95 + frame % 4), 1 + frame, kStartUtime + frame * kFramePeriodUs), truth);
+    EXPECT_EQ(next.mode, static_cast<int8_t>(pose_estimate_t::MODE_TRACKED));
+    EXPECT_EQ(next.track_id, first.track_id);
+    restarted = next.frames_since_detection < previous;
+    previous = next.frames_since_detection;
+    // Give the background thread time to finish its check (a wait, not a timing assertion).
+    if (frame >= 3) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  EXPECT_TRUE(restarted) << "the background re-detection never came back";
 }
 
 // Every field but the solver's wall time, bit for bit.
