@@ -16,7 +16,8 @@
 #
 # Environment: DATA_DIR=../shared/data, OUT=out/tracking, BUILD_DIR=build (G6D_SKIP_BUILD=1
 # uses it as it is), THREADS=2, CACHES=<OUT>/caches (template caches of the datasets, built
-# when missing), SEQUENCE=<OUT>/sequence (the sample sequence, made when missing).
+# when missing), SEQUENCE=<OUT>/sequence (the sample sequence, made when missing),
+# SERVICE_ARGS="..." (more g6d-service flags for the service section).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # shellcheck source=scripts/lib_g6d.sh
@@ -95,8 +96,9 @@ for section in "${SECTIONS[@]}"; do
         dir="${OUT}/service_${tracking}"
         rm -rf "${dir}"
         mkdir -p "${dir}"
+        # shellcheck disable=SC2086  # SERVICE_ARGS is a list of words
         g6d_start_service "${BUILD_DIR}/service/g6d-service" "${SEQUENCE}/caches" "${URL}" "${dir}/service.log" \
-          --workers "${THREADS}" --tracking "${tracking}"
+          --workers "${THREADS}" --tracking "${tracking}" ${SERVICE_ARGS:-}
         # The service's CPU over the replay only: from when it serves (caches loaded).
         for _ in $(seq 600); do
           grep -q "serving" "${dir}/service.log" 2> /dev/null && break

@@ -1,7 +1,10 @@
 #include "core/executor.h"
 
 #include <atomic>
+#include <chrono>
+#include <condition_variable>
 #include <memory>
+#include <mutex>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -166,6 +169,30 @@ TEST(ThreadPool, CallersFromSeveralThreadsShareThePool) {
   }
   for (std::thread& caller : callers) caller.join();
   for (const auto& sum : sums) EXPECT_EQ(sum.load(), 50 * 45);
+}
+
+// An outer loop over a quick item and one that runs a nested loop: whichever thread
+// finishes the quick item (the caller or the worker) must take a nested item, so the two
+// nested items run at the same time. Each waits (up to 10 s, not a timing assertion) for
+// the other to start.
+TEST(ThreadPool, AWaitingCallerRunsNestedWorkOfAnotherThread) {
+  ThreadPool pool(2);
+  for (int round = 0; round < 20; ++round) {
+    std::mutex mutex;
+    std::condition_variable started;
+    int running = 0;
+    std::atomic<int> met{0};
+    pool.ParallelFor(2, [&](int outer) {
+      if (outer == 0) return;
+      pool.ParallelFor(2, [&](int) {
+        std::unique_lock<std::mutex> lock(mutex);
+        ++running;
+        started.notify_all();
+        if (started.wait_for(lock, std::chrono::seconds(10), [&] { return running == 2; })) ++met;
+      });
+    });
+    EXPECT_EQ(met.load(), 2) << "round " << round << ": the nested items did not run side by side";
+  }
 }
 
 TEST(ThreadPool, DestroysCleanlyRightAfterWork) {

@@ -56,17 +56,16 @@ void ThreadPool::WorkerLoop() {
   }
 }
 
-namespace {
 // Shared by the caller and the helper tasks of one ParallelFor call. Items are claimed
 // through an atomic counter; helpers that start after every item is claimed do nothing,
 // so `fn` (owned by the caller) is only touched while the caller is still waiting.
 struct ForState {
+  ThreadPool* pool = nullptr;
   int n = 0;
   const std::function<void(int)>* fn = nullptr;
   std::atomic<int> next{0};
-  std::mutex mutex;
-  std::condition_variable all_done;
-  int done = 0;
+  std::atomic<int> done{0};
+  std::mutex mutex;          // guards error and error_index
   std::exception_ptr error;  // of the lowest failing index, whichever thread ran it
   int error_index = 0;
 
@@ -78,16 +77,23 @@ struct ForState {
       } catch (...) {
         item_error = std::current_exception();
       }
-      std::lock_guard<std::mutex> lock(mutex);
-      if (item_error && (!error || i < error_index)) {
-        error = item_error;
-        error_index = i;
+      if (item_error) {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (!error || i < error_index) {
+          error = item_error;
+          error_index = i;
+        }
       }
-      if (++done == n) all_done.notify_all();
+      if (done.fetch_add(1) + 1 == n) {
+        // The caller waits on the pool's condition (it runs queued work meanwhile): wake
+        // it under the pool's mutex, so that it cannot miss this between its check of
+        // `done` and its wait.
+        std::lock_guard<std::mutex> lock(pool->mutex_);
+        pool->task_available_.notify_all();
+      }
     }
   }
 };
-}  // namespace
 
 void ThreadPool::ParallelFor(int n, const std::function<void(int)>& fn) {
   if (n <= 0) return;
@@ -96,6 +102,7 @@ void ThreadPool::ParallelFor(int n, const std::function<void(int)>& fn) {
     return;
   }
   auto state = std::make_shared<ForState>();
+  state->pool = this;
   state->n = n;
   state->fn = &fn;
   const int helpers = std::min(n - 1, static_cast<int>(workers_.size()));
@@ -105,9 +112,27 @@ void ThreadPool::ParallelFor(int n, const std::function<void(int)>& fn) {
   }
   task_available_.notify_all();
   state->RunItems();
-  std::unique_lock<std::mutex> lock(state->mutex);
-  state->all_done.wait(lock, [&] { return state->done == n; });
-  if (state->error) std::rethrow_exception(state->error);
+  // Every item is claimed; until the last one is done, run queued work (e.g. the helpers
+  // of a ParallelFor nested in one of this call's items, on another thread).
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (state->done.load() != n) {
+    if (!tasks_.empty()) {
+      std::function<void()> task = std::move(tasks_.front());
+      tasks_.pop_front();
+      lock.unlock();
+      task();
+      lock.lock();
+      continue;
+    }
+    task_available_.wait(lock);
+  }
+  lock.unlock();
+  std::exception_ptr error;
+  {
+    std::lock_guard<std::mutex> error_lock(state->mutex);
+    error = state->error;
+  }
+  if (error) std::rethrow_exception(error);
 }
 
 }  // namespace g6d

@@ -36,6 +36,10 @@ class InlineExecutor final : public Executor {
 
 /// A fixed pool: `num_threads - 1` worker threads plus the thread that calls ParallelFor.
 /// Owned by applications (tools, service, tests), never created inside lib/ algorithms.
+/// A caller whose items are all claimed runs other queued work while it waits for them
+/// (the helpers of a nested ParallelFor inside an item another thread runs), so that an
+/// outer loop over a few items of unequal cost (a service frame: one detection, two
+/// tracked instances) keeps every thread busy.
 class ThreadPool final : public Executor {
  public:
   /// num_threads >= 1 is the total parallelism including the calling thread.
@@ -49,6 +53,7 @@ class ThreadPool final : public Executor {
 
  private:
   void WorkerLoop();
+  friend struct ForState;
 
   std::mutex mutex_;
   std::condition_variable task_available_;
