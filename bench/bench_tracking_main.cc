@@ -104,7 +104,7 @@ int RunSequence(const g6d::BopDataset& dataset, const std::string& dataset_dir, 
                 int abrupt_frame, bool baseline, g6d::Executor* pool, std::FILE* records) {
   int instances = 0, tracked_correct = 0, baseline_correct = 0;
   std::map<g6d::AnswerMode, int> modes;
-  int lost = 0, periodic = 0, wrong_before = 0, wrong_after = 0, instances_before = 0, instances_after = 0;
+  int lost = 0, lost_by_appearance = 0, periodic = 0, wrong_before = 0, wrong_after = 0, instances_before = 0, instances_after = 0;
   int longest_wrong_run_after = 0;
   std::vector<double> track_ms, tracked_answer_ms, frame_tracking_ms, frame_baseline_ms, detect_ms, background_ms;
   int corrections = 0;
@@ -173,6 +173,7 @@ int RunSequence(const g6d::BopDataset& dataset, const std::string& dataset_dir, 
         baseline_correct += baseline_error < kCorrectD;
         ++modes[a.mode];
         lost += a.lost;
+        lost_by_appearance += a.lost_by_appearance;
         periodic += a.periodic;
         if (a.track_ms > 0.0) track_ms.push_back(a.track_ms);
         if (a.detect_ms > 0.0) detect_ms.push_back(a.detect_ms);
@@ -213,6 +214,7 @@ int RunSequence(const g6d::BopDataset& dataset, const std::string& dataset_dir, 
   if (baseline) {
     std::printf("| frame, every frame solved | %.1f | %.1f | %zu |\n", Percentile(frame_baseline_ms, 0.5), Percentile(frame_baseline_ms, 0.95), frame_baseline_ms.size());
   }
+  std::printf("\nlost tracked poses: %d (by the appearance drop alone: %d)\n", lost, lost_by_appearance);
   if (!background_ms.empty()) {
     std::printf("| background re-detection, per instance (not in the frame) | %.1f | %.1f | %zu |\n", Percentile(background_ms, 0.5),
                 Percentile(background_ms, 0.95), background_ms.size());
@@ -232,7 +234,9 @@ int RunSequence(const g6d::BopDataset& dataset, const std::string& dataset_dir, 
 // One TrackPose outcome from a perturbed GT start.
 struct Probe {
   double rotation_deg = 0.0, translation_d = 0.0;
-  double s = 2.0, iou = 0.0, error_d = 1e9, ms = 0.0, prepare_ms = 0.0, icp_ms = 0.0, mhpo_ms = 0.0;
+  double s = 2.0, iou = 0.0, error_d = 1e9, ms = 0.0, prepare_ms = 0.0, icp_ms = 0.0, mhpo_ms = 0.0, appearance_ms = 0.0;
+  bool appearance_valid = false;
+  double appearance = 0.0, gt_appearance = 0.0;  // agreement of the answer and of the GT pose
   bool success = false;
 };
 
@@ -265,6 +269,12 @@ int RunPerturb(const g6d::BopDataset& dataset, const std::string& dataset_dir, O
       if (!loaded) frame = LoadFrame(scene, target.im_id), loaded = true;
       const g6d::Instance instance{object.bank.object_id, g6d::LoadBopMaskVisib(scene, target.im_id, static_cast<int>(gt_idx))};
       const Eigen::Vector3d centre = gt.cam_from_object * object.bank.bounding_box.center();
+      // The agreement at the GT pose: what a correct detection of this instance reports.
+      const g6d::AppearanceScore gt_appearance =
+          object.bank.appearance.Empty()
+              ? g6d::AppearanceScore()
+              : g6d::ScoreAppearance(solver.appearance, object.bank.appearance, object.bank.online_mesh, frame.camera,
+                                     frame.rgb, instance.mask > 0, gt.cam_from_object);
       for (int k = 0; k < per_instance; ++k) {
         Probe probe;
         probe.rotation_deg = max_rotation_deg * unit(rng);
@@ -282,11 +292,16 @@ int RunPerturb(const g6d::BopDataset& dataset, const std::string& dataset_dir, O
         probe.prepare_ms = result.stages.prepare_ms;
         probe.icp_ms = result.stages.icp_ms;
         probe.mhpo_ms = result.stages.mhpo_ms;
+        probe.appearance_ms = result.stages.finalists_ms;
+        probe.appearance_valid = result.appearance_valid && gt_appearance.valid;
+        probe.appearance = result.appearance_agreement;
+        probe.gt_appearance = gt_appearance.agreement;
         if (result.success) probe.error_d = objects->ErrorD(target.obj_id, result.cam_from_object, gt.cam_from_object);
         probes.push_back(probe);
         if (records) {
-          std::fprintf(records, "%d,%d,%d,%zu,%.3f,%.4f,%d,%.6f,%.6f,%.6f,%.3f\n", target.scene_id, target.im_id, target.obj_id, gt_idx,
-                       probe.rotation_deg, probe.translation_d, probe.success ? 1 : 0, probe.s, probe.iou, probe.error_d, probe.ms);
+          std::fprintf(records, "%d,%d,%d,%zu,%.3f,%.4f,%d,%.6f,%.6f,%.6f,%.3f,%d,%.4f,%.4f\n", target.scene_id, target.im_id,
+                       target.obj_id, gt_idx, probe.rotation_deg, probe.translation_d, probe.success ? 1 : 0, probe.s, probe.iou,
+                       probe.error_d, probe.ms, probe.appearance_valid ? 1 : 0, probe.appearance, probe.gt_appearance);
         }
       }
     }
@@ -360,6 +375,8 @@ int main(int argc, char** argv) {
   app.add_option("--max-translation-d", max_translation_d, "--perturb: start translation error at most, fraction of d")->capture_default_str();
   app.add_option("--loss-score", tracker.loss_score, "tracked pose lost when S_A is above this")->capture_default_str();
   app.add_option("--min-iou", tracker.min_iou, "tracked pose lost when J is below this")->capture_default_str();
+  app.add_option("--appearance-drop", tracker.appearance_drop, "tracked pose lost when its appearance agreement fell by more than this (<= 0: off)")
+      ->capture_default_str();
   app.add_option("--redetect-every", tracker.redetect_every, "periodic re-detection after N tracked frames (0 = never)")->capture_default_str();
   app.add_option("--max-age-s", tracker.max_age_s, "tracks expire after this long without an answer")->capture_default_str();
   app.add_option("--min-overlap", tracker.min_overlap, "association: mask / predicted silhouette overlap at least")->capture_default_str();
@@ -393,7 +410,8 @@ int main(int argc, char** argv) {
     if (!records_csv.empty()) {
       records = std::fopen(records_csv.c_str(), "w");
       if (!records) G6D_THROW("cannot write '" << records_csv << "'");
-      std::fprintf(records, perturb > 0 ? "scene_id,im_id,obj_id,gt_idx,start_rotation_deg,start_translation_d,success,score,iou,error_d,ms\n"
+      std::fprintf(records, perturb > 0 ? "scene_id,im_id,obj_id,gt_idx,start_rotation_deg,start_translation_d,success,score,iou,error_d,ms,"
+                                          "appearance_valid,appearance,gt_appearance\n"
                                         : "scene_id,im_id,obj_id,gt_idx,mode,track_id,frames_since_detection,lost,periodic,score,"
                                           "error_d,baseline_error_d,tracked_score,tracked_iou,tracked_error_d,track_ms,detect_ms\n");
     }

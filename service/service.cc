@@ -87,10 +87,10 @@ void Service::Start() {
   const TrackerOptions& tracking = options_.tracking;
   if (tracking.enabled) {
     spdlog::info(
-        "tracking on: max age {} s, min overlap {}, loss score {}, min IoU {}, "
+        "tracking on: max age {} s, min overlap {}, loss score {}, min IoU {}, appearance drop {}, "
         "re-detect every {} frames ({} per frame, {}), constant velocity {}",
         tracking.max_age_s, tracking.min_overlap, tracking.loss_score, tracking.min_iou,
-        tracking.redetect_every, tracking.max_periodic_per_frame,
+        tracking.appearance_drop, tracking.redetect_every, tracking.max_periodic_per_frame,
         tracking.background_redetect ? "in the background" : "in the frame",
         tracking.constant_velocity ? "on" : "off");
   } else {

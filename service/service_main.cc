@@ -142,6 +142,11 @@ int main(int argc, char** argv) {
   auto* track_min_iou = app.add_option("--track-min-iou", flags.tracking.min_iou,
                                        "... or with a silhouette/mask IoU below this")
                             ->capture_default_str();
+  auto* track_appearance_drop =
+      app.add_option("--track-appearance-drop", flags.tracking.appearance_drop,
+                     "... or, for a coloured mesh (not a surface of revolution), with an appearance "
+                     "agreement lower than the last answer's by more than this (<= 0: off)")
+          ->capture_default_str();
   auto* redetect_every = app.add_option("--redetect-every", flags.tracking.redetect_every,
                                         "re-detect a track after this many tracked answers "
                                         "(0 = never)")
@@ -191,6 +196,7 @@ int main(int argc, char** argv) {
   if (given(track_min_overlap)) options.tracking.min_overlap = flags.tracking.min_overlap;
   if (given(track_loss_score)) options.tracking.loss_score = flags.tracking.loss_score;
   if (given(track_min_iou)) options.tracking.min_iou = flags.tracking.min_iou;
+  if (given(track_appearance_drop)) options.tracking.appearance_drop = flags.tracking.appearance_drop;
   if (given(redetect_every)) options.tracking.redetect_every = flags.tracking.redetect_every;
   if (given(redetect_per_frame))
     options.tracking.max_periodic_per_frame = flags.tracking.max_periodic_per_frame;

@@ -83,7 +83,7 @@ struct ServiceOptions {
 /// solver: {max_sets, hamming_threshold, min_correspondences, query_features, run_icp,
 /// run_mhpo, mhpo_max_rounds, early_stop_score, reject_border_masks,
 /// min_valid_depth_pixels},
-/// tracking: {enabled, max_age_s, min_overlap, loss_score, min_iou, redetect_every,
+/// tracking: {enabled, max_age_s, min_overlap, loss_score, min_iou, appearance_drop, redetect_every,
 /// max_periodic_per_frame, constant_velocity, background_redetect}. Throws g6d::Error naming the file and key on an
 /// unknown key, a value of the wrong type or a file that does not parse.
 void LoadServiceOptionsYaml(const std::string& path, ServiceOptions* options);

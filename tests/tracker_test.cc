@@ -172,6 +172,39 @@ TEST_F(TrackerTest, ALostTrackIsRedetectedInTheSameFrame) {
   EXPECT_FALSE(tracker.tracks()[0].has_velocity);  // a jump is no velocity
 }
 
+TEST_F(TrackerTest, AFlipOntoAShapeSymmetryIsLostByAppearance) {
+  ThreadPool pool(2);
+  Tracker tracker{TrackerOptions()};
+  const Eigen::Isometry3d first = StartPose();
+  {
+    const auto [frame, instance] = View(first);
+    ASSERT_EQ(RunFrame(&tracker, 0.0, frame, {instance}, Banks(), &pool)[0].mode, AnswerMode::kDetected);
+    ASSERT_TRUE(tracker.tracks()[0].appearance_valid);
+  }
+  // Turned 180 degrees about its own z axis: the box's shape maps onto itself (same
+  // silhouette, same depth, so the same S), its printed faces do not.
+  Eigen::Isometry3d flipped = first;
+  flipped.linear() = first.linear() * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const auto [frame, instance] = View(flipped, 2);
+  const TrackedAnswer a = RunFrame(&tracker, 1 / 30.0, frame, {instance}, Banks(), &pool)[0];
+  ASSERT_TRUE(a.result.success) << a.result.message;
+  EXPECT_LT(a.tracked_score.s, TrackerOptions().loss_score);  // S cannot see it ...
+  EXPECT_TRUE(a.lost_by_appearance);                           // ... appearance can
+  EXPECT_EQ(a.mode, AnswerMode::kRedetected);
+  EXPECT_LT(ErrorD(a.result.cam_from_object, flipped), 0.1);
+  // With the appearance rule off, the flipped track is kept: confident and wrong.
+  TrackerOptions off;
+  off.appearance_drop = 0.0;
+  Tracker blind(off);
+  {
+    const auto [first_frame, first_instance] = View(first);
+    RunFrame(&blind, 0.0, first_frame, {first_instance}, Banks(), &pool);
+  }
+  const TrackedAnswer kept = RunFrame(&blind, 1 / 30.0, frame, {instance}, Banks(), &pool)[0];
+  EXPECT_EQ(kept.mode, AnswerMode::kTracked);
+  EXPECT_GT(ErrorD(kept.result.cam_from_object, flipped), 0.1);
+}
+
 TEST_F(TrackerTest, ANewInstanceStartsATrackAndOldTracksExpire) {
   ThreadPool pool(2);
   TrackerOptions options;

@@ -872,6 +872,16 @@ PoseResult TrackPose(const Frame& frame, const Instance& instance, const Templat
                                    online_score, &scratch);
       }
       stages.finalists_ms = watch.ElapsedMs();
+    } else if (track_options.score_appearance && !bank.appearance.Empty() && options.appearance_tiebreak) {
+      // Any other coloured mesh: the agreement of the answer, for the caller's loss test
+      // (a flip onto a shape symmetry scores as well by S but not by appearance).
+      watch.Restart();
+      const AppearanceScore appearance = ScoreAppearance(options.appearance, bank.appearance, bank.online_mesh,
+                                                         frame.camera, frame.rgb, observation.mask, result.cam_from_object);
+      ++stages.appearance_compared;
+      result.appearance_valid = appearance.valid;
+      result.appearance_agreement = appearance.agreement;
+      stages.finalists_ms = watch.ElapsedMs();
     }
     result.score = result.details.s;
     result.confidence = ConfidenceFromScore(options, result.score, false);

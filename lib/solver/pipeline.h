@@ -262,6 +262,9 @@ struct TrackSolveOptions {
   /// appearance agreement within +- this many degrees of the refined pose (0 = off) ...
   double appearance_search_deg = 8.0;
   double appearance_step_deg = 2.0;  ///< ... in steps of this many degrees
+  /// Score the appearance agreement of the answer of any other coloured mesh too
+  /// (PoseResult::appearance_valid / appearance_agreement), for the tracker's loss test.
+  bool score_appearance = true;
 
   std::string Check() const;
 };
@@ -270,8 +273,8 @@ struct TrackSolveOptions {
 /// constant-velocity prediction): trimmed ICP on depth, MHPO, the best state by S. The
 /// observation is prepared as EstimatePose prepares it, with `options`; the result has the
 /// same fields (T_A, S_A, details, confidence, truncated; no runner-up: only the starts'
-/// neighbourhood is searched; appearance only for a coloured surface of revolution, see
-/// TrackSolveOptions::appearance_search_deg). Never throws for bad data: bad input gives success = false,
+/// neighbourhood is searched; with a coloured mesh, the appearance agreement of T_A, and a
+/// surface of revolution turned about its axis by it, see TrackSolveOptions). Never throws for bad data: bad input gives success = false,
 /// termination kBadInput. Starts fan out over `executor`.
 PoseResult TrackPose(const Frame& frame, const Instance& instance, const TemplateBank& bank,
                      const SolverOptions& options, const TrackSolveOptions& track_options,

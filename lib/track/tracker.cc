@@ -30,6 +30,7 @@ std::string TrackerOptions::Check() const {
   else if (!(min_iou >= 0.0 && min_iou <= 1.0)) out << "TrackerOptions.min_iou must be in [0, 1] (got " << min_iou << ")";
   else if (redetect_every < 0) out << "TrackerOptions.redetect_every must be >= 0 (got " << redetect_every << ")";
   else if (max_periodic_per_frame < 1) out << "TrackerOptions.max_periodic_per_frame must be >= 1 (got " << max_periodic_per_frame << ")";
+  else if (!std::isfinite(appearance_drop)) out << "TrackerOptions.appearance_drop must be finite (got " << appearance_drop << ")";
   else if (!(confirm_margin >= 0.0 && confirm_margin < 2.0)) out << "TrackerOptions.confirm_margin must be in [0, 2) (got " << confirm_margin << ")";
   if (!out.str().empty()) return out.str();
   return solve.Check();
@@ -82,6 +83,13 @@ TrackedAnswer SolveWithPlan(const Frame& frame, const Instance& instance, const 
   answer.tracked_score = tracked.details;
   answer.tracked_pose = tracked.cam_from_object;
   answer.lost = !tracked.success || tracked.score > options.loss_score || tracked.details.iou < options.min_iou;
+  // Not for a surface of revolution: its agreement varies with the turn TrackPose searches
+  // and raised false alarms on the sample sequence (bench/RESULTS.md, issue 14).
+  if (!answer.lost && options.appearance_drop > 0.0 && !bank.geometric_symmetries.revolution &&
+      plan.track.appearance_valid && tracked.appearance_valid &&
+      tracked.appearance_agreement < plan.track.appearance - options.appearance_drop) {
+    answer.lost = answer.lost_by_appearance = true;
+  }
   if (!answer.lost && (!plan.redetect || options.background_redetect)) {
     answer.result = std::move(tracked);
     // A track that a background re-detection corrected answers as re-detected once.
@@ -204,6 +212,8 @@ void Tracker::Update(double time_s, const std::vector<TrackPlan>& plans, std::ve
       track.object_id = plan.object_id;
       track.cam_from_object = answer.result.cam_from_object;
       track.score = answer.result.score;
+      track.appearance_valid = answer.result.appearance_valid;
+      track.appearance = answer.result.appearance_agreement;
       track.time_s = time_s;
       track.answers = 1;
       tracks_.push_back(track);
@@ -225,6 +235,8 @@ void Tracker::Update(double time_s, const std::vector<TrackPlan>& plans, std::ve
     }
     track.cam_from_object = answer.result.cam_from_object;
     track.score = answer.result.score;
+    track.appearance_valid = answer.result.appearance_valid;
+    track.appearance = answer.result.appearance_agreement;
     track.time_s = time_s;
     track.frames_since_detection = detection ? 0 : track.frames_since_detection + 1;
     track.confirmation_pending = track.confirmation_pending || answer.confirm_requested;

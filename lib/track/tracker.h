@@ -54,8 +54,12 @@ struct TrackerOptions {
   /// A tracked pose is lost (the full solver runs in the same frame) when its S_A is above
   /// this ...
   double loss_score = 0.20;
-  /// ... or the IoU of its rendered silhouette and the mask (J) is below this.
+  /// ... or the IoU of its rendered silhouette and the mask (J) is below this ...
   double min_iou = 0.6;
+  /// ... or, for a coloured mesh that is not a surface of revolution, its appearance
+  /// agreement (ZNCC) fell by more than this since the track's last answer: a flip onto a
+  /// symmetry of the shape keeps S but not the print. <= 0: off.
+  double appearance_drop = 0.3;
   /// Re-detect a track after this many frames without a detection, to catch a confident
   /// but wrong track; 0 = never. At most `max_periodic_per_frame` periodic re-detections
   /// run in one frame (the most overdue first), so tracks started together do not all
@@ -84,6 +88,8 @@ struct Track {
   std::string object_id;
   Eigen::Isometry3d cam_from_object = Eigen::Isometry3d::Identity();  ///< last T_A
   double score = 2.0;                 ///< last S_A
+  bool appearance_valid = false;      ///< the last answer's appearance agreement is known
+  double appearance = 0.0;            ///< and is this (ZNCC, [-1, 1])
   double time_s = 0.0;                ///< frame time of the last answer
   bool has_velocity = false;          ///< the last two answers were close enough in time
   Eigen::Vector3d velocity_m_s = Eigen::Vector3d::Zero();    ///< translation per second (camera frame)
@@ -110,7 +116,8 @@ struct TrackedAnswer {
   AnswerMode mode = AnswerMode::kDetected;
   int track_id = -1;              ///< filled by Tracker::Update (new tracks get their id there)
   int frames_since_detection = 0; ///< filled by Tracker::Update; 0 for (re-)detections
-  bool lost = false;              ///< the tracked pose was refused (S_A or J)
+  bool lost = false;              ///< the tracked pose was refused (S_A, J or appearance)
+  bool lost_by_appearance = false;  ///< ... by the appearance drop alone
   bool periodic = false;          ///< a periodic re-detection ran
   bool from_track = false;        ///< the answer is TrackPose's pose (a continuous motion)
   /// A periodic re-detection is due and TrackerOptions::background_redetect is on: run
