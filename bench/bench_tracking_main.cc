@@ -149,7 +149,7 @@ int RunSequence(const g6d::BopDataset& dataset, const std::string& dataset_dir, 
         watch.Restart();
         const g6d::PoseResult detection = g6d::EstimatePose(frame, batch[i], *lookup(batch[i].object_id), solver, pool);
         background_ms.push_back(watch.ElapsedMs());
-        corrections += tracker.ApplyConfirmation(a.track_id, a.result.cam_from_object, a.result.score, detection,
+        corrections += tracker.ApplyConfirmation(a.track_id, a.result, detection,
                                                  lookup(batch[i].object_id)->diameter_m);
       }
       std::vector<g6d::PoseResult> detections(batch.size());

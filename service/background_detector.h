@@ -31,8 +31,7 @@ class BackgroundDetector {
     Frame frame;        ///< shares the decoded images (never written after decoding)
     Instance instance;
     std::shared_ptr<const TemplateBank> bank;
-    Eigen::Isometry3d tracked_pose = Eigen::Isometry3d::Identity();
-    double tracked_score = 2.0;
+    PoseResult tracked;  ///< the track's answer on that frame
   };
   /// A finished re-detection.
   struct Done {

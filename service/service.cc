@@ -356,12 +356,11 @@ void Service::ApplyBackgroundDetections() {
   if (!background_) return;
   for (const BackgroundDetector::Done& done : background_->TakeFinished()) {
     const BackgroundDetector::Job& check = done.job;
-    if (tracker_.ApplyConfirmation(check.track_id, check.tracked_pose, check.tracked_score, done.detection,
-                                   check.bank->diameter_m)) {
+    if (tracker_.ApplyConfirmation(check.track_id, check.tracked, done.detection, check.bank->diameter_m)) {
       ++background_corrections_;
       spdlog::info("track {} ({}): a background re-detection ({:.0f} ms) found S {:.3f} where the track had {:.3f}; "
                    "track corrected",
-                   check.track_id, check.instance.object_id, done.wall_ms, done.detection.score, check.tracked_score);
+                   check.track_id, check.instance.object_id, done.wall_ms, done.detection.score, check.tracked.score);
     }
   }
 }
@@ -378,11 +377,10 @@ void Service::SubmitBackgroundDetections(const Job& job, const std::vector<Insta
     check.frame = Frame{job.decoded.frame.camera, job.decoded.frame.rgb.clone(), job.decoded.frame.depth.clone()};
     check.instance = Instance{instances[k].object_id, instances[k].mask.clone()};
     check.bank = store_.banks.at(instances[k].object_id);
-    check.tracked_pose = answer.result.cam_from_object;
-    check.tracked_score = answer.result.score;
+    check.tracked = answer.result;
     if (!background_->Submit(std::move(check))) {
       // Busy: this check is skipped; the track is due again after redetect_every frames.
-      tracker_.ApplyConfirmation(answer.track_id, answer.result.cam_from_object, answer.result.score, PoseResult(), 1.0);
+      tracker_.ApplyConfirmation(answer.track_id, answer.result, PoseResult(), 1.0);
     }
   }
 }

@@ -37,8 +37,9 @@ class BackgroundDetectorTest : public ::testing::Test {
     job.frame = Frame{kCamera, view.rgb, view.depth};
     job.instance = Instance{"box", view.mask};
     job.bank = bank_;
-    job.tracked_pose = *truth;
-    job.tracked_score = 0.1;
+    job.tracked.success = true;
+    job.tracked.cam_from_object = *truth;
+    job.tracked.score = 0.1;
     return job;
   }
   static Mesh* mesh_;

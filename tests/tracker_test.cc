@@ -301,7 +301,7 @@ TEST_F(TrackerTest, ABackgroundRedetectionCorrectsAConfidentlyWrongTrack) {
   // A detection that agrees changes nothing but the count.
   const PoseResult agreeing = EstimatePose(frame, instance, *bank_, SolverOptions(), &pool);
   const Eigen::Isometry3d tracked = answers[0].result.cam_from_object;
-  EXPECT_FALSE(tracker.ApplyConfirmation(1, tracked, answers[0].result.score, agreeing, bank_->diameter_m));
+  EXPECT_FALSE(tracker.ApplyConfirmation(1, answers[0].result, agreeing, bank_->diameter_m));
   EXPECT_FALSE(tracker.tracks()[0].confirmation_pending);
   EXPECT_EQ(tracker.tracks()[0].frames_since_detection, 0);
   // One that scores clearly lower elsewhere moves the track by the motion tracked since:
@@ -312,14 +312,41 @@ TEST_F(TrackerTest, ABackgroundRedetectionCorrectsAConfidentlyWrongTrack) {
   const Eigen::Isometry3d then = tracked;
   Eigen::Isometry3d shifted_then = then;
   shifted_then.translation().x() -= 0.01;  // the frame of the re-detection, 1 cm before now
-  ASSERT_TRUE(tracker.ApplyConfirmation(1, shifted_then, 0.5, better, bank_->diameter_m));
+  PoseResult then_answer = answers[0].result;
+  then_answer.cam_from_object = shifted_then;
+  then_answer.score = 0.5;
+  ASSERT_TRUE(tracker.ApplyConfirmation(1, then_answer, better, bank_->diameter_m));
   const Track& track = tracker.tracks()[0];
   const Eigen::Isometry3d expected = tracked * shifted_then.inverse() * better.cam_from_object;
   EXPECT_TRUE(track.cam_from_object.isApprox(expected, 1e-12));
   EXPECT_TRUE(track.corrected);
   EXPECT_FALSE(track.has_velocity);
   // Unknown tracks are ignored.
-  EXPECT_FALSE(tracker.ApplyConfirmation(99, then, 0.5, better, bank_->diameter_m));
+  EXPECT_FALSE(tracker.ApplyConfirmation(99, then_answer, better, bank_->diameter_m));
+}
+
+TEST(TrackerConfirmationTest, ADetectionWinsByLowerSOrByAppearanceAtTheSameS) {
+  const TrackerOptions options;  // margin 0.02, appearance gain 0.1
+  PoseResult tracked, detection;
+  tracked.success = detection.success = true;
+  tracked.score = 0.10;
+  detection.score = 0.07;
+  EXPECT_TRUE(DetectionIsBetter(options, tracked, detection));  // lower by more than the margin
+  detection.score = 0.09;
+  EXPECT_FALSE(DetectionIsBetter(options, tracked, detection));  // within the margin, no appearance
+  tracked.appearance_valid = detection.appearance_valid = true;
+  tracked.appearance_agreement = 0.3;
+  detection.appearance_agreement = 0.45;
+  EXPECT_TRUE(DetectionIsBetter(options, tracked, detection));  // same S, clearly better print
+  detection.score = 0.115;
+  EXPECT_TRUE(DetectionIsBetter(options, tracked, detection));  // a little worse S, clearly better print
+  detection.score = 0.13;
+  EXPECT_FALSE(DetectionIsBetter(options, tracked, detection));  // worse S beyond the margin
+  detection.score = 0.10;
+  detection.appearance_agreement = 0.35;
+  EXPECT_FALSE(DetectionIsBetter(options, tracked, detection));  // print only a little better
+  detection.success = false;
+  EXPECT_FALSE(DetectionIsBetter(options, tracked, detection));
 }
 
 TEST_F(TrackerTest, TrackingOffGivesTheSingleFrameAnswersExactly) {

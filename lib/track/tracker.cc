@@ -32,8 +32,16 @@ std::string TrackerOptions::Check() const {
   else if (max_periodic_per_frame < 1) out << "TrackerOptions.max_periodic_per_frame must be >= 1 (got " << max_periodic_per_frame << ")";
   else if (!std::isfinite(appearance_drop)) out << "TrackerOptions.appearance_drop must be finite (got " << appearance_drop << ")";
   else if (!(confirm_margin >= 0.0 && confirm_margin < 2.0)) out << "TrackerOptions.confirm_margin must be in [0, 2) (got " << confirm_margin << ")";
+  else if (!(confirm_appearance_gain >= 0.0 && confirm_appearance_gain <= 2.0)) out << "TrackerOptions.confirm_appearance_gain must be in [0, 2] (got " << confirm_appearance_gain << ")";
   if (!out.str().empty()) return out.str();
   return solve.Check();
+}
+
+bool DetectionIsBetter(const TrackerOptions& options, const PoseResult& tracked, const PoseResult& detection) {
+  if (!detection.success) return false;
+  if (!tracked.success || detection.score < tracked.score - options.confirm_margin) return true;
+  return detection.score <= tracked.score + options.confirm_margin && detection.appearance_valid && tracked.appearance_valid &&
+         detection.appearance_agreement > tracked.appearance_agreement + options.confirm_appearance_gain;
 }
 
 Eigen::Isometry3d PredictPose(const Track& track, double time_s) {
@@ -104,7 +112,14 @@ TrackedAnswer SolveWithPlan(const Frame& frame, const Instance& instance, const 
   watch.Restart();
   PoseResult detected = EstimatePose(frame, instance, bank, solver_options, executor);
   answer.detect_ms = watch.ElapsedMs();
-  answer.from_track = tracked.success && (!detected.success || tracked.score < detected.score);
+  // The lower S, or the clearly better print at about the same S.
+  TrackerOptions in_frame = options;
+  in_frame.confirm_margin = 0.0;
+  const bool detection_better =
+      DetectionIsBetter(in_frame, tracked, detected) ||
+      (detected.success && tracked.success && std::abs(detected.score - tracked.score) <= options.confirm_margin &&
+       DetectionIsBetter(options, tracked, detected));
+  answer.from_track = tracked.success && !detection_better;
   answer.result = answer.from_track ? std::move(tracked) : std::move(detected);
   return answer;
 }
@@ -247,13 +262,13 @@ void Tracker::Update(double time_s, const std::vector<TrackPlan>& plans, std::ve
   }
 }
 
-bool Tracker::ApplyConfirmation(int track_id, const Eigen::Isometry3d& tracked_pose, double tracked_score,
-                                const PoseResult& detection, double diameter_m) {
+bool Tracker::ApplyConfirmation(int track_id, const PoseResult& tracked, const PoseResult& detection, double diameter_m) {
   auto track = std::find_if(tracks_.begin(), tracks_.end(), [&](const Track& t) { return t.id == track_id; });
   if (track == tracks_.end()) return false;
   track->confirmation_pending = false;
   track->frames_since_detection = 0;
-  if (!detection.success || !(detection.score < tracked_score - options_.confirm_margin)) return false;
+  if (!DetectionIsBetter(options_, tracked, detection)) return false;
+  const Eigen::Isometry3d& tracked_pose = tracked.cam_from_object;
   // Far apart: the mean displacement of points a diameter apart around the origin (a
   // cheap stand-in for ADD without the model's points).
   const Eigen::Isometry3d difference = detection.cam_from_object * tracked_pose.inverse();

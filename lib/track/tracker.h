@@ -73,7 +73,12 @@ struct TrackerOptions {
   /// elsewhere corrects the track (moved on by the motion tracked since). Off: the
   /// periodic re-detection runs in the frame, like a lost track's.
   bool background_redetect = false;
+  /// A re-detection replaces a tracked pose when its S is lower by more than this, or
+  /// within this of the tracked S with an appearance agreement higher by more than
+  /// `confirm_appearance_gain` (a coloured surface of revolution or a flipped box: the
+  /// same S either way, only the print tells).
   double confirm_margin = 0.02;
+  double confirm_appearance_gain = 0.1;
   /// Start from the constant-velocity prediction (from the last two answers) as well as
   /// from the last pose.
   bool constant_velocity = true;
@@ -161,14 +166,14 @@ class Tracker {
   /// frames_since_detection. A failed answer leaves its track to expire.
   void Update(double time_s, const std::vector<TrackPlan>& plans, std::vector<TrackedAnswer>* answers);
 
-  /// A background re-detection of track `track_id` on a frame where the track's answer was `tracked_pose` with S `tracked_score`: `detection` (EstimatePose's
-  /// result on that frame). When it scores lower by options.confirm_margin and lies farther
-  /// than a tenth of `diameter_m` from the tracked pose, the track is corrected: its pose
-  /// becomes the detection moved by the motion tracked since that frame, and its next
-  /// answer is a re-detection. Either way its re-detection count restarts. Returns true
-  /// when the track was corrected; false also when the track is gone.
-  bool ApplyConfirmation(int track_id, const Eigen::Isometry3d& tracked_pose, double tracked_score,
-                         const PoseResult& detection, double diameter_m);
+  /// A background re-detection of track `track_id` on a frame where the track's answer was
+  /// `tracked`: `detection` (EstimatePose's result on that frame). When the detection is
+  /// the better answer (DetectionIsBetter) and lies farther than a tenth of `diameter_m`
+  /// from the tracked pose, the track is corrected: its pose becomes the detection moved
+  /// by the motion tracked since that frame, and its next answer is a re-detection. Either
+  /// way its re-detection count restarts. Returns true when the track was corrected; false
+  /// also when the track is gone.
+  bool ApplyConfirmation(int track_id, const PoseResult& tracked, const PoseResult& detection, double diameter_m);
 
   /// The live tracks, by id.
   const std::vector<Track>& tracks() const { return tracks_; }
@@ -180,6 +185,10 @@ class Tracker {
   std::vector<Track> tracks_;
   int next_id_ = 1;
 };
+
+/// True when `detection` is a better answer than `tracked` under `options` (see
+/// TrackerOptions::confirm_margin); false when the detection failed.
+bool DetectionIsBetter(const TrackerOptions& options, const PoseResult& tracked, const PoseResult& detection);
 
 /// The constant-velocity prediction of a track's pose at `time_s` (its last pose when it
 /// has no velocity).
