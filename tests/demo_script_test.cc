@@ -50,7 +50,7 @@ int CountFiles(const fs::path& dir, const std::string& extension) {
 
 TEST(DemoScript, RunsTheEmbeddedSampleThroughTheService) {
   const std::string out = test::ScratchDirs::Make("demo_script_sample");
-  const test::CommandResult run = RunDemo("OUT=" + out + " FRAMES=3 SEED=1");
+  const test::CommandResult run = RunDemo("OUT=" + out + " FRAMES=3 SEED=1 SEQUENCE_FRAMES=12");
   ASSERT_EQ(run.exit_code, 0) << run.output;
   // One line per instance: image, object, S_A, confidence, ms, error, verdict.
   const std::regex instance_line(
@@ -70,9 +70,21 @@ TEST(DemoScript, RunsTheEmbeddedSampleThroughTheService) {
   const std::string service_log((std::istreambuf_iterator<char>(log)),
                                 std::istreambuf_iterator<char>());
   EXPECT_THAT(service_log, HasSubstr("SIGTERM"));
+  // The tracking part: the 12-frame sequence through the service in real time, a
+  // timeline row per object (D first: a new track is detected), counts and accuracy.
+  EXPECT_THAT(run.output, HasSubstr("Tracking: the moving-camera sequence (12 frames at 30 Hz"));
+  EXPECT_EQ(CountLinesWith(run.output, std::regex(R"(^  obj_00000\d D[D.Rx_]{11}$)")), 3) << run.output;
+  EXPECT_THAT(run.output, HasSubstr("ADD(-S)@0.1d of the answers:"));
+  const Json sequence = Json::parse(std::ifstream(out + "/tracking/summary.json"));
+  EXPECT_EQ(sequence["sent"], 12);
+  EXPECT_GE(sequence["answered"].get<int>(), 1);
+  std::ifstream tracking_log(out + "/tracking/service.log");
+  const std::string tracking_service_log((std::istreambuf_iterator<char>(tracking_log)),
+                                         std::istreambuf_iterator<char>());
+  EXPECT_THAT(tracking_service_log, HasSubstr("tracking on"));
 
   // Again: the sample is current and kept.
-  const test::CommandResult again = RunDemo("OUT=" + out + " FRAMES=3 SEED=1");
+  const test::CommandResult again = RunDemo("OUT=" + out + " FRAMES=3 SEED=1 SEQUENCE_FRAMES=12");
   ASSERT_EQ(again.exit_code, 0) << again.output;
   EXPECT_THAT(again.output, HasSubstr("is up to date"));
   EXPECT_EQ(CountLinesWith(again.output, instance_line), 9);
