@@ -21,6 +21,7 @@
 #include "mesh/mesh.h"
 #include "solver/pipeline.h"
 #include "templates/cache.h"
+#include "bench_objects.h"
 
 namespace {
 
@@ -31,12 +32,7 @@ double Percentile(std::vector<double> values, double q) {
   return values[index];
 }
 
-struct ObjectData {
-  g6d::TemplateBank bank;
-  std::vector<Eigen::Vector3f> points;  // model points for ADD(-S), metres
-  bool symmetric = false;
-  double diameter_m = 0.0;
-};
+using ObjectData = g6d::bench::BenchObject;
 
 struct Tally {
   int total = 0;
@@ -182,15 +178,7 @@ int main(int argc, char** argv) {
       if (!scenes.count(target.scene_id)) scenes.emplace(target.scene_id, g6d::LoadBopScene(dataset_dir, target.scene_id));
       const g6d::BopScene& scene = scenes.at(target.scene_id);
       if (!objects.count(target.obj_id)) {
-        const g6d::BopObjectInfo& info = dataset.Object(target.obj_id);
-        ObjectData data;
-        data.bank = g6d::ReadTemplateCache(caches_dir + "/" + info.name + ".g6dcache");
-        const g6d::Mesh mesh = g6d::LoadMesh(info.mesh_path, info.mesh_units);
-        const size_t step = std::max<size_t>(1, mesh.vertices.size() / 3000);
-        for (size_t i = 0; i < mesh.vertices.size(); i += step) data.points.push_back(mesh.vertices[i]);
-        data.symmetric = info.IsSymmetric() || std::count(adds_ids.begin(), adds_ids.end(), target.obj_id) > 0;
-        data.diameter_m = info.diameter_m;
-        objects.emplace(target.obj_id, std::move(data));
+        objects.emplace(target.obj_id, g6d::bench::LoadBenchObject(dataset, target.obj_id, caches_dir, adds_ids));
       }
       const ObjectData& object = objects.at(target.obj_id);
       const g6d::BopFrame& bop_frame = scene.Frame(target.im_id);

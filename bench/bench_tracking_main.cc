@@ -31,22 +31,13 @@
 #include "solver/pipeline.h"
 #include "templates/cache.h"
 #include "track/tracker.h"
+#include "bench_objects.h"
+#include "core/stats.h"
 
 namespace {
 
-double Percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  const size_t index = std::min(values.size() - 1, static_cast<size_t>(q * (values.size() - 1) + 0.5));
-  return values[index];
-}
-
-struct ObjectData {
-  g6d::TemplateBank bank;
-  std::vector<Eigen::Vector3f> points;  // model points for ADD(-S), metres
-  bool symmetric = false;
-  double diameter_m = 0.0;
-};
+using g6d::Percentile;
+using ObjectData = g6d::bench::BenchObject;
 
 // The dataset's objects, loaded on first use.
 class Objects {
@@ -56,15 +47,7 @@ class Objects {
   const ObjectData& Get(int obj_id) {
     auto found = objects_.find(obj_id);
     if (found != objects_.end()) return found->second;
-    const g6d::BopObjectInfo& info = dataset_.Object(obj_id);
-    ObjectData data;
-    data.bank = g6d::ReadTemplateCache(caches_ + "/" + info.name + ".g6dcache");
-    const g6d::Mesh mesh = g6d::LoadMesh(info.mesh_path, info.mesh_units);
-    const size_t step = std::max<size_t>(1, mesh.vertices.size() / 3000);
-    for (size_t i = 0; i < mesh.vertices.size(); i += step) data.points.push_back(mesh.vertices[i]);
-    data.symmetric = info.IsSymmetric() || std::count(adds_ids_.begin(), adds_ids_.end(), obj_id) > 0;
-    data.diameter_m = info.diameter_m;
-    return objects_.emplace(obj_id, std::move(data)).first->second;
+    return objects_.emplace(obj_id, g6d::bench::LoadBenchObject(dataset_, obj_id, caches_, adds_ids_)).first->second;
   }
   // ADD(-S) error of `pose` against `gt`, as a fraction of the diameter.
   double ErrorD(int obj_id, const Eigen::Isometry3d& pose, const Eigen::Isometry3d& gt) {

@@ -208,6 +208,16 @@ IcpReport RunIcpFrom(const SolverOptions& options, const Mesh& mesh, const Evalu
   return report;
 }
 
+// *result marked failed with `termination` and `message`, its total time taken from
+// `total`; returns a copy for the caller to return.
+PoseResult Failed(Termination termination, const std::string& message, const Stopwatch& total, PoseResult* result) {
+  result->success = false;
+  result->termination = termination;
+  result->message = message;
+  result->stages.total_ms = total.ElapsedMs();
+  return *result;
+}
+
 // The symmetries of the shape: the mesh's geometric ones and those the user gave (BOP
 // models_info.json) as discrete ones.
 MeshSymmetries ShapeSymmetries(const TemplateBank& bank) {
@@ -588,11 +598,7 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
   // PnP pose found, its score; the clock records that work was left out.
   SolveClock clock(options);
   auto fail = [&](Termination termination, const std::string& message) {
-    result.success = false;
-    result.termination = termination;
-    result.message = message;
-    stages.total_ms = total.ElapsedMs();
-    return result;
+    return Failed(termination, message, total, &result);
   };
   try {
     const std::string bad = ValidateInputs(frame, instance, bank, options);
@@ -773,11 +779,7 @@ PoseResult TrackPose(const Frame& frame, const Instance& instance, const Templat
   StageReport& stages = result.stages;
   const Stopwatch total;
   auto fail = [&](Termination termination, const std::string& message) {
-    result.success = false;
-    result.termination = termination;
-    result.message = message;
-    stages.total_ms = total.ElapsedMs();
-    return result;
+    return Failed(termination, message, total, &result);
   };
   try {
     std::string bad = ValidateInputs(frame, instance, bank, options);
