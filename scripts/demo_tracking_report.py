@@ -16,12 +16,7 @@ import json
 import os
 import sys
 
-
-def percentile(values, q):
-    if not values:
-        return 0.0
-    values = sorted(values)
-    return values[int(q * (len(values) - 1) + 0.5)]
+from demo_report import percentile  # scripts/ is this script's folder: nearest rank, as g6d-replay
 
 
 def main():
