@@ -112,13 +112,10 @@ TrackedAnswer SolveWithPlan(const Frame& frame, const Instance& instance, const 
   watch.Restart();
   PoseResult detected = EstimatePose(frame, instance, bank, solver_options, executor);
   answer.detect_ms = watch.ElapsedMs();
-  // The lower S, or the clearly better print at about the same S.
-  TrackerOptions in_frame = options;
-  in_frame.confirm_margin = 0.0;
+  // In the frame any lower S wins (never worse than detection by S), as does a clearly
+  // better print at about the same S.
   const bool detection_better =
-      DetectionIsBetter(in_frame, tracked, detected) ||
-      (detected.success && tracked.success && std::abs(detected.score - tracked.score) <= options.confirm_margin &&
-       DetectionIsBetter(options, tracked, detected));
+      detected.success && (detected.score < tracked.score || DetectionIsBetter(options, tracked, detected));
   answer.from_track = tracked.success && !detection_better;
   answer.result = answer.from_track ? std::move(tracked) : std::move(detected);
   return answer;
