@@ -1,6 +1,7 @@
 // g6d-bench-dataset: runs EstimatePose directly (no LCM) on every target instance of a
-// BOP dataset with its GT visible mask; writes the BOP results CSV and prints ADD(-S)
-// recall per object and after each stage, and latency percentiles per stage.
+// BOP dataset with its GT visible mask (or that mask degraded, --degrade-masks); writes the
+// BOP results CSV and prints ADD(-S) recall per object and after each stage, and latency
+// percentiles per stage.
 #include <algorithm>
 #include <cstdio>
 #include <map>
@@ -17,6 +18,7 @@
 #include "core/timer.h"
 #include "eval/bop.h"
 #include "eval/bop_csv.h"
+#include "eval/mask_degrade.h"
 #include "eval/metrics.h"
 #include "mesh/mesh.h"
 #include "solver/pipeline.h"
@@ -41,6 +43,25 @@ struct Tally {
   int oracle_pnp_rot = 0, oracle_kept_rot = 0;  // some PnP / kept pose within 15 deg of GT rotation
   int search_failures = 0, score_failures = 0;  // misses with S(GT) < S_A / S(GT) >= S_A (--score-gt)
 };
+
+// "GT visible" or the degradation, e.g. "erode 6 px" or "cut 0.30, seed 1", for the report.
+std::string MaskLabel(const g6d::MaskDegradeOptions& degrade) {
+  char label[128];
+  switch (degrade.mode) {
+    case g6d::MaskDegradation::kNone:
+      return "GT visible";
+    case g6d::MaskDegradation::kCut:
+      std::snprintf(label, sizeof(label), "cut %.2f, seed %llu", degrade.cut_fraction,
+                    static_cast<unsigned long long>(degrade.seed));
+      return label;
+    case g6d::MaskDegradation::kJitter:
+      std::snprintf(label, sizeof(label), "jitter %d px, seed %llu", degrade.size_px,
+                    static_cast<unsigned long long>(degrade.seed));
+      return label;
+    default:
+      return g6d::MaskDegradationName(degrade.mode) + " " + std::to_string(degrade.size_px) + " px";
+  }
+}
 
 }  // namespace
 
@@ -109,6 +130,21 @@ int main(int argc, char** argv) {
                "also score the GT pose (S, 1 - J, depth term) beside S_A per instance: a miss with S(GT) < S_A is a "
                "search failure, with S(GT) >= S_A a score failure (records CSV and a summary)");
   app.add_flag("--oracle", oracle, "also report whether any PnP / kept hypothesis was correct (slow)");
+  // Masks as a segmenter might give them (issue 22): the GT visible mask degraded.
+  std::string degrade_mode = "none";
+  g6d::MaskDegradeOptions degrade;
+  app.add_option("--degrade-masks", degrade_mode,
+                 "give the solver the GT visible mask degraded: " + g6d::MaskDegradationNames())
+      ->capture_default_str();
+  app.add_option("--degrade-px", degrade.size_px,
+                 "degradation strength, pixels (erode/dilate radius, jitter amplitude, merge "
+                 "distance, box margin)")
+      ->capture_default_str();
+  app.add_option("--degrade-seed", degrade.seed, "seed of the random degradations (jitter, cut)")
+      ->capture_default_str();
+  app.add_option("--degrade-cut-fraction", degrade.cut_fraction,
+                 "cut: fraction of the mask's pixels removed, in [0, 1)")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -153,6 +189,14 @@ int main(int argc, char** argv) {
     else G6D_THROW("--pnp-solver must be depth, p3p or opencv (got '" << pnp_solver << "')");
     options.pnp.local_optimization = !no_lo;
     if (every < 1) G6D_THROW("--every must be >= 1 (got " << every << ")");
+    degrade.mode = g6d::ParseMaskDegradation(degrade_mode);
+    if (degrade.size_px < 0) G6D_THROW("--degrade-px must be >= 0 (got " << degrade.size_px << ")");
+    if (!(degrade.cut_fraction >= 0.0 && degrade.cut_fraction < 1.0)) {
+      G6D_THROW("--degrade-cut-fraction must be in [0, 1) (got " << degrade.cut_fraction << ")");
+    }
+    if (const std::string problem = degrade.Check(); !problem.empty())
+      G6D_THROW("bad --degrade-* options: " << problem);
+    const bool degrading = degrade.mode != g6d::MaskDegradation::kNone;
     std::FILE* records = nullptr;
     if (!records_csv.empty()) {
       records = std::fopen(records_csv.c_str(), "w");
@@ -174,6 +218,9 @@ int main(int argc, char** argv) {
     std::vector<g6d::BopEstimate> estimates;
     std::map<std::pair<int, int>, double> image_time_s;
     int done = 0, cut_short = 0;
+    // Degraded masks: IoU with the GT visible mask, how many were merged / came out empty.
+    double mask_iou_sum = 0.0;
+    int masks_merged = 0, masks_empty = 0;
     for (const g6d::BopTarget& target : dataset.targets) {
       if (!scenes.count(target.scene_id)) scenes.emplace(target.scene_id, g6d::LoadBopScene(dataset_dir, target.scene_id));
       const g6d::BopScene& scene = scenes.at(target.scene_id);
@@ -194,7 +241,31 @@ int main(int argc, char** argv) {
         if (gt.obj_id != target.obj_id) continue;
         ++instances;
         if (seen++ % every != 0) continue;
-        const g6d::Instance instance{object.bank.object_id, g6d::LoadBopMaskVisib(scene, target.im_id, static_cast<int>(gt_idx))};
+        const cv::Mat gt_mask =
+            g6d::LoadBopMaskVisib(scene, target.im_id, static_cast<int>(gt_idx));
+        cv::Mat solver_mask = gt_mask;
+        double mask_iou = 1.0;
+        if (degrading) {
+          // Merge needs the image's other instances (their GT visible masks); nothing else does.
+          std::vector<cv::Mat> other_masks;
+          if (degrade.mode == g6d::MaskDegradation::kMerge) {
+            for (size_t other = 0; other < bop_frame.gt.size(); ++other) {
+              if (other == gt_idx) continue;
+              other_masks.push_back(
+                  g6d::LoadBopMaskVisib(scene, target.im_id, static_cast<int>(other)));
+            }
+          }
+          bool merged = false;
+          solver_mask = g6d::DegradeMask(
+              gt_mask, other_masks, degrade,
+              g6d::MaskInstanceKey(target.scene_id, target.im_id, static_cast<int>(gt_idx)),
+              &merged);
+          mask_iou = g6d::MaskIou(solver_mask, gt_mask);
+          masks_merged += merged ? 1 : 0;
+          masks_empty += cv::countNonZero(solver_mask) == 0 ? 1 : 0;
+        }
+        mask_iou_sum += mask_iou;
+        const g6d::Instance instance{object.bank.object_id, solver_mask};
         const g6d::PoseResult result = g6d::EstimatePose(frame, instance, object.bank, options, &pool);
         const g6d::StageReport& s = result.stages;
         g6d::PoseScore gt_score;
@@ -282,6 +353,7 @@ int main(int argc, char** argv) {
                      result.truncated ? " (truncated)" : "", result.ambiguous ? " (ambiguous)" : "", result.score,
                      object.symmetric ? "-S" : "",
                      final_error * 1000, final_error / object.diameter_m, s.total_ms);
+        if (degrading) std::fprintf(stderr, " | mask IoU %.2f", mask_iou);
         if (has_gt_score) {
           std::fprintf(stderr, " | S(GT) %.3f (1-J %.3f, depth %.3f, occluded %d px)", gt_score.s, 1.0 - gt_score.iou,
                        options.score.lambda_s * gt_score.depth_residual, gt_score.occluded_pixels);
@@ -295,7 +367,8 @@ int main(int argc, char** argv) {
     for (g6d::BopEstimate& e : estimates) e.time_s = image_time_s[{e.scene_id, e.im_id}];
     if (!out_csv.empty()) g6d::WriteBopCsv(out_csv, estimates);
 
-    std::printf("\nADD(-S)@0.1d recall (%%), K = %d, %d threads\n", hypotheses, threads);
+    std::printf("\nADD(-S)@0.1d recall (%%), K = %d, %d threads, masks: %s\n", hypotheses, threads,
+                MaskLabel(degrade).c_str());
     std::printf("| object | n | seed | +PnP | +observable | +ICP | +MHPO (final) |\n|---|---|---|---|---|---|---|\n");
     Tally all;
     for (const auto& [obj_id, tally] : tallies) {
@@ -336,6 +409,13 @@ int main(int argc, char** argv) {
     struct rusage usage;
     getrusage(RUSAGE_SELF, &usage);
     std::printf(" |\n\npeak resident memory: %.0f MB\n", usage.ru_maxrss / 1024.0);
+    std::printf(
+        "masks (%s): mean IoU with the GT visible mask %.3f over %d instances, %d empty (counted "
+        "as misses)",
+        MaskLabel(degrade).c_str(), mask_iou_sum / std::max(1, done), done, masks_empty);
+    if (degrade.mode == g6d::MaskDegradation::kMerge)
+      std::printf(", %d merged with a touching neighbour", masks_merged);
+    std::printf("\n");
     if (budget_ms > 0.0) std::printf("budget %.0f ms per instance: %d of %d answers cut short\n", budget_ms, cut_short, done);
     std::printf("\nlatency per instance (ms)\n| stage | p50 | p95 |\n|---|---|---|\n");
     for (const g6d::StageTime& stage : g6d::StageTimes(g6d::StageReport())) {
