@@ -7,7 +7,7 @@
 #   bash scripts/sanitize.sh ci       # what .ci/run runs: ASan + UBSan on the tests of the code
 #                                     # that parses untrusted bytes or does geometry in raw loops
 #                                     # (ASAN_CI_TESTS below, the fuzz corpora), then tsan
-# Build folders: build-asan/ and build-tsan/ (Release + -g). Extra arguments after the suite
+# Build folders: build-asan/ and build-tsan/ (Release with G6D_SANITIZE_FLAGS, -O1 -g1 by default). Extra arguments after the suite
 # go to ctest, e.g. `bash scripts/sanitize.sh asan -R cache_test`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -57,7 +57,11 @@ run_asan_ci() {
   (
     cd build-asan
     asan_environment
-    ctest --output-on-failure -j"${JOBS:-2}" -R "${regex}" "$@"
+    local test_start status=0
+    test_start=$(date +%s)
+    ctest --output-on-failure -j"${JOBS:-2}" -R "${regex}" "$@" || status=$?
+    echo "[sanitize] asan tests: $(($(date +%s) - test_start)) s (ctest exit ${status})"
+    exit "${status}"
   )
 }
 
@@ -81,7 +85,11 @@ run_tsan() {
   (
     cd build-tsan
     export TSAN_OPTIONS="suppressions=${ROOT}/tests/tsan_suppressions.txt:ignore_noninstrumented_modules=1:halt_on_error=1:second_deadlock_stack=1"
-    ctest --output-on-failure -j"${JOBS:-2}" -R "${regex}" "$@"
+    local test_start status=0
+    test_start=$(date +%s)
+    ctest --output-on-failure -j"${JOBS:-2}" -R "${regex}" "$@" || status=$?
+    echo "[sanitize] tsan tests: $(($(date +%s) - test_start)) s (ctest exit ${status})"
+    exit "${status}"
   )
 }
 
