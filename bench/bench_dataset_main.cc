@@ -106,6 +106,9 @@ int main(int argc, char** argv) {
   int icp_point_iterations = -1;
   app.add_option("--icp-point-iterations", icp_point_iterations, "point-to-plane ICP: the first N iterations are point-to-point (default: solver's)");
   app.add_flag("--no-appearance", no_appearance, "no appearance tie-break among finalists (ablation)");
+  std::string mask_trust = "depth";
+  app.add_option("--mask-trust", mask_trust, "how the mask is read: depth (evidence checked by the depth) or exact (the paper's; ablation)")
+      ->capture_default_str();
   app.add_flag("--no-occlusion", no_occlusion, "no occlusion reasoning in the scores, ICP and MHPO (ablation)");
   app.add_flag("--no-dedupe", no_dedupe, "keep hypotheses equal modulo symmetry as separate K slots (ablation)");
   // Speed schedule (issue 13), each switchable for the ablation table.
@@ -165,6 +168,7 @@ int main(int argc, char** argv) {
     options.budget_ms = budget_ms;
     if (no_appearance) options.appearance_tiebreak = false;
     if (no_occlusion) options.score.occlusion_margin_m = 0.0;
+    options.mask_trust = g6d::ParseMaskTrust(mask_trust);
     if (no_dedupe) options.distinct_pose_fraction = 0.0;
     if (point_to_point) options.icp.point_to_plane = false;
     if (icp_point_iterations >= 0) options.icp.point_to_point_iterations = icp_point_iterations;

@@ -84,6 +84,12 @@ int main(int argc, char** argv) {
       app.add_option("--workers", flags.workers, "solver threads in total")->capture_default_str();
   auto* k = app.add_option("--hypotheses", hypotheses, "K = N_H, hypotheses refined per instance")
                 ->capture_default_str();
+  std::string mask_trust = g6d::MaskTrustName(defaults.solver.mask_trust);
+  auto* trust = app.add_option("--mask-trust", mask_trust,
+                               "how instance masks are read: depth (evidence checked by the depth) or exact "
+                               "(the paper's: every mask pixel is object)")
+                    ->check(CLI::IsMember({"depth", "exact"}))
+                    ->capture_default_str();
   auto* max_age =
       app.add_option("--max-age-ms", flags.max_age_ms, "drop frames older than this (0 = never)")
           ->capture_default_str();
@@ -184,6 +190,7 @@ int main(int argc, char** argv) {
   if (given(url)) options.lcm_url = flags.lcm_url;
   if (given(workers)) options.workers = flags.workers;
   if (given(k)) options.solver.num_hypotheses = hypotheses;
+  if (given(trust)) options.solver.mask_trust = g6d::ParseMaskTrust(mask_trust);
   if (given(max_age)) options.max_age_ms = flags.max_age_ms;
   if (given(budget)) options.solver.budget_ms = flags.solver.budget_ms;
   if (given(name)) options.name = flags.name;

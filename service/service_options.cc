@@ -120,6 +120,14 @@ void ParseServiceOptionsYaml(const std::string& text, const std::string& name,
             {"lcm_url", string_field(&o.lcm_url)},
             {"workers", int_field(&o.workers)},
             {"hypotheses", int_field(&o.solver.num_hypotheses)},
+            {"mask_trust",
+             [&](const YAML::Node& n, const std::string& key) {
+               try {
+                 o.solver.mask_trust = ParseMaskTrust(As<std::string>(n, name, key));
+               } catch (const Error& e) {
+                 G6D_THROW(name << ": key '" << key << "': " << e.what());
+               }
+             }},
             {"max_age_ms", double_field(&o.max_age_ms)},
             {"budget_ms", double_field(&o.solver.budget_ms)},
             {"subscription_queue", int_field(&o.subscription_queue)},

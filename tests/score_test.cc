@@ -88,5 +88,54 @@ TEST(MeanMaskedDepth, IgnoresInvalidPixels) {
   EXPECT_EQ(valid, 2);
 }
 
+// Masks as evidence: a rendering larger than an eroded mask, whose extra pixels the depth
+// puts on the rendered surface, is not penalized for them; on the support plane it is.
+TEST(ScoreRendering, DepthEvidenceCountsWhatTheMaskMissed) {
+  EvaluationGrid grid = MakeGrid();
+  grid.depth(cv::Rect(1, 1, 6, 7)).setTo(1.0f);  // the object is larger than its (eroded) mask
+  RasterImage rendered;
+  rendered.depth = cv::Mat::zeros(10, 10, CV_32F);
+  rendered.depth(cv::Rect(1, 1, 6, 7)).setTo(1.002f);  // the true pose: 42 px
+  ScoreOptions exact;
+  const PoseScore as_given = ScoreRendering(grid, rendered, 1.0, exact);
+  EXPECT_DOUBLE_EQ(as_given.iou, 20.0 / 42.0);
+  EXPECT_EQ(as_given.recovered_pixels, 0);
+  ScoreOptions evidence;
+  evidence.depth_evidence = true;
+  evidence.surface_tolerance_m = 0.005;
+  const PoseScore checked = ScoreRendering(grid, rendered, 1.0, evidence);
+  EXPECT_EQ(checked.recovered_pixels, 22);
+  EXPECT_DOUBLE_EQ(checked.iou, 1.0);
+  EXPECT_EQ(checked.overlap_pixels, 42);
+  // Off the surface by more than the tolerance: background, against the pose as before.
+  evidence.surface_tolerance_m = 0.001;
+  EXPECT_DOUBLE_EQ(ScoreRendering(grid, rendered, 1.0, evidence).iou, 20.0 / 42.0);
+  // On the support plane: never object.
+  evidence.surface_tolerance_m = 0.005;
+  grid.support = cv::Mat::zeros(10, 10, CV_8U);
+  grid.support(cv::Rect(1, 1, 6, 7)).setTo(255);
+  grid.support(cv::Rect(2, 2, 4, 5)).setTo(0);
+  EXPECT_DOUBLE_EQ(ScoreRendering(grid, rendered, 1.0, evidence).iou, 20.0 / 42.0);
+}
+
+// Masks as evidence: a mask pixel that the depth puts in front of the rendered surface is
+// an occluder the mask leaked onto: neutral, not a depth residual.
+TEST(ScoreRendering, DepthEvidenceTreatsAnOccluderInTheMaskAsNeutral) {
+  EvaluationGrid grid = MakeGrid();
+  grid.depth(cv::Rect(2, 2, 1, 5)).setTo(0.8f);  // a 5 px occluder inside the mask
+  RasterImage rendered;
+  rendered.depth = cv::Mat::zeros(10, 10, CV_32F);
+  rendered.depth(cv::Rect(2, 2, 4, 5)).setTo(1.0f);
+  const PoseScore as_given = ScoreRendering(grid, rendered, 1.0, ScoreOptions());
+  EXPECT_NEAR(as_given.depth_residual, 5 * 0.2 / 20.0, 1e-6);
+  ScoreOptions evidence;
+  evidence.depth_evidence = true;
+  evidence.surface_tolerance_m = 0.005;
+  const PoseScore checked = ScoreRendering(grid, rendered, 1.0, evidence);
+  EXPECT_EQ(checked.occluded_pixels, 5);
+  EXPECT_NEAR(checked.depth_residual, 0.0, 1e-9);
+  EXPECT_DOUBLE_EQ(checked.iou, 1.0);
+}
+
 }  // namespace
 }  // namespace g6d

@@ -81,6 +81,12 @@ int main(int argc, char** argv) {
   app.add_option("--budget-ms", budget_ms, "time budget of the solve, ms (0 = none): when it runs out the best pose so far is returned, marked cut short")->check(CLI::NonNegativeNumber);
   app.add_flag("--no-mhpo", no_mhpo, "skip MHPO (ablation)");
   bool post_refine = false, allow_border = false, reject_border = false;
+  std::string mask_trust = g6d::MaskTrustName(g6d::SolverOptions().mask_trust);
+  app.add_option("--mask-trust", mask_trust,
+                 "how the mask is read: depth (evidence: leaks onto the table, the background and occluders removed, "
+                 "object the mask missed counted by the depth) or exact (the paper's: every mask pixel is object)")
+      ->check(CLI::IsMember({"depth", "exact"}))
+      ->capture_default_str();
   app.add_flag("--post-refine", post_refine, "optional stage 6: retry a poor pose from flipped / re-centred hypotheses");
   app.add_flag("--allow-border-masks", allow_border, "solve a mask that touches the image border (the default; kept for old scripts)");
   app.add_flag("--reject-border-masks", reject_border, "refuse a mask that touches the image border (a truncated object)");
@@ -106,6 +112,7 @@ int main(int argc, char** argv) {
     options.budget_ms = budget_ms;
     options.run_mhpo = !no_mhpo;
     options.post_refine = post_refine;
+    options.mask_trust = g6d::ParseMaskTrust(mask_trust);
     if (allow_border && reject_border) G6D_THROW("--allow-border-masks and --reject-border-masks contradict each other");
     options.reject_border_masks = reject_border;
     g6d::ThreadPool pool(std::max(1, threads));
@@ -174,6 +181,12 @@ int main(int argc, char** argv) {
                      {"pnp_hypotheses", s.pnp_hypotheses}, {"kept_hypotheses", s.kept_hypotheses},
                      {"icp_converged", s.icp_converged}, {"best_e_obs", s.best_e_obs},
                      {"best_s_after_icp", s.best_s_after_icp}};
+      j["mask"] = {{"trust", mask_trust},
+                   {"given_pixels", s.mask_given_pixels},
+                   {"support_plane", s.support_plane},
+                   {"support_leak_pixels", s.mask_support_leak},
+                   {"far_leak_pixels", s.mask_far_leak},
+                   {"surface_tolerance_m", s.surface_tolerance_m}};
       j["cut_short"] = result.cut_short;
       for (const g6d::StageTime& stage : g6d::StageTimes(s)) j["time_ms"][stage.name] = stage.ms;
       std::ofstream out(json_path);

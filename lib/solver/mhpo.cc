@@ -157,7 +157,15 @@ void RunRound(const MhpoOptions& options, const ScoreOptions& score_options, con
       if (!(z > 0.0f)) continue;
       const Eigen::Vector3d point = camera.Backproject(PixelCentre(u, v), z);
       const bool in_mask = grid.mask.at<uint8_t>(v, u) != 0;
-      if (in_mask && DepthSupportValid(grid.depth, u, v)) surface.push_back(point);
+      // Outside the mask, a pixel the depth puts on the rendered surface is object the mask
+      // missed (ScoreOptions::depth_evidence): its depth counts, its mask edge does not.
+      const bool missed = !in_mask && MissedByMask(z, grid.depth.at<float>(v, u),
+                                                   !grid.support.empty() && grid.support.at<uint8_t>(v, u) != 0,
+                                                   score_options);
+      // Inside the mask, an occluder the mask leaked onto is not the object (as in S).
+      const bool leaked_occluder =
+          in_mask && score_options.depth_evidence && IsOccluded(z, grid.depth.at<float>(v, u), score_options);
+      if ((in_mask || missed) && !leaked_occluder && DepthSupportValid(grid.depth, u, v)) surface.push_back(point);
       // Contour points on the grid's edge are where the rendering leaves the ROI or the
       // image (a truncated object): there is no observed boundary to pull them to. Contour
       // points hidden behind an unmasked occluder have none either.
@@ -165,14 +173,18 @@ void RunRound(const MhpoOptions& options, const ScoreOptions& score_options, con
       const bool edge = !(rendered.at<float>(v, u - 1) > 0.0f) || !(rendered.at<float>(v, u + 1) > 0.0f) ||
                         !(rendered.at<float>(v - 1, u) > 0.0f) || !(rendered.at<float>(v + 1, u) > 0.0f);
       if (!edge) continue;
-      if (!in_mask && IsOccluded(z, grid.depth.at<float>(v, u), score_options)) continue;
+      if (leaked_occluder || (!in_mask && (missed || IsOccluded(z, grid.depth.at<float>(v, u), score_options)))) continue;
       contour.push_back(point);
     }
   }
-  if (contour.size() < 6) {
+  // With depth evidence, a silhouette wholly inside what the mask missed still has its
+  // depth to align (the contour term then has nothing to say).
+  const bool depth_only = score_options.depth_evidence && surface.size() >= 6;
+  if (contour.size() < 6 && !depth_only) {
     state->active = false;  // the rendering left the grid: nothing to align
     return;
   }
+  if (contour.size() < 6) contour.clear();
   auto subsample = [](std::vector<Eigen::Vector3d>* points, int max_count) {
     if (static_cast<int>(points->size()) <= max_count) return;
     std::vector<Eigen::Vector3d> kept;
@@ -187,7 +199,7 @@ void RunRound(const MhpoOptions& options, const ScoreOptions& score_options, con
   double delta[6] = {0, 0, 0, 0, 0, 0};
   ceres::Problem problem;
   const double grid_side = std::max(camera.width, camera.height);
-  const double silhouette_weight = 1.0 / (grid_side * std::sqrt(static_cast<double>(contour.size())));
+  const double silhouette_weight = 1.0 / (grid_side * std::sqrt(static_cast<double>(std::max<size_t>(1, contour.size()))));
   for (const Eigen::Vector3d& point : contour) {
     problem.AddResidualBlock(
         new ceres::AutoDiffCostFunction<SilhouetteCost, 1, 6>(

@@ -54,8 +54,9 @@ double MedianMaskedDepth(const cv::Mat& mask, const cv::Mat& depth, int* valid_p
 }
 
 EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, const cv::Mat& depth,
-                                  const GridOptions& options) {
+                                  const GridOptions& options, const cv::Mat& support) {
   G6D_CHECK(mask.type() == CV_8U && depth.type() == CV_32F);
+  G6D_CHECK(support.empty() || (support.type() == CV_8U && support.size() == mask.size()));
   G6D_CHECK(mask.cols == camera.width && mask.rows == camera.height && depth.size() == mask.size());
   EvaluationGrid grid;
   const cv::Rect box = cv::boundingRect(mask);
@@ -81,14 +82,18 @@ EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, con
   grid.camera.height = std::max(1, grid.camera.height);
   grid.mask.create(grid.camera.height, grid.camera.width, CV_8U);
   grid.depth.create(grid.camera.height, grid.camera.width, CV_32F);
+  if (!support.empty()) grid.support.create(grid.camera.height, grid.camera.width, CV_8U);
   for (int v = 0; v < grid.camera.height; ++v) {
     const int sv = std::min(y1 - 1, y0 + static_cast<int>((v + 0.5) / scale));
     const uint8_t* m = mask.ptr<uint8_t>(sv);
     const float* d = depth.ptr<float>(sv);
     uint8_t* gm = grid.mask.ptr<uint8_t>(v);
     float* gd = grid.depth.ptr<float>(v);
+    const uint8_t* s = support.empty() ? nullptr : support.ptr<uint8_t>(sv);
+    uint8_t* gs = support.empty() ? nullptr : grid.support.ptr<uint8_t>(v);
     for (int u = 0; u < grid.camera.width; ++u) {
       const int su = std::min(x1 - 1, x0 + static_cast<int>((u + 0.5) / scale));
+      if (gs != nullptr) gs[u] = s[su] ? 255 : 0;
       gm[u] = m[su] ? 255 : 0;
       const float z = d[su];
       gd[u] = (z > 0.0f && std::isfinite(z)) ? z : 0.0f;

@@ -19,6 +19,7 @@ struct EvaluationGrid {
   Camera camera;  ///< camera of the grid (Camera::Cropped then Scaled)
   cv::Mat mask;   ///< CV_8U 0/255 observed mask on the grid
   cv::Mat depth;  ///< CV_32F metres on the grid, 0 = invalid
+  cv::Mat support;  ///< CV_8U 0/255 on the grid: pixels on the support plane; empty = none known
   int mask_pixels = 0;
 };
 
@@ -34,8 +35,9 @@ struct GridOptions {
 
 /// Resamples `mask` (CV_8U, non-zero = object) and `depth` (CV_32F metres) of the full
 /// image onto the ROI around the mask box, clipped to the image.
+/// `support` (optional, CV_8U frame size, non-zero = on the support plane) is resampled too.
 EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, const cv::Mat& depth,
-                                  const GridOptions& options);
+                                  const GridOptions& options, const cv::Mat& support = cv::Mat());
 
 /// z_M of eq. (9): mean observed depth over mask pixels with valid depth, metres;
 /// 0 when there is none. *valid_pixels (optional) receives their count.

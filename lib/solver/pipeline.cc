@@ -26,6 +26,7 @@ std::string SolverOptions::Check() const {
   if (bad.empty()) bad = icp.Check();
   if (bad.empty()) bad = mhpo.Check();
   if (bad.empty()) bad = appearance.Check();
+  if (bad.empty()) bad = region.Check();
   if (!bad.empty()) return bad;
   std::ostringstream out;
   if (num_hypotheses < 1) out << "SolverOptions.num_hypotheses must be >= 1 (got " << num_hypotheses << ")";
@@ -109,25 +110,38 @@ struct Observation {
   double z_m = 0.0;          // robust z_M (median; eq. (9) uses the mean)
   int valid_depth = 0;       // mask pixels with valid depth
   bool truncated = false;    // the mask touches the image border
+  ObservedRegion region;     // what the depth changed in the caller's mask (MaskTrust::kDepth)
+  ScoreOptions score;        // options.score with this instance's depth evidence
   std::unique_ptr<PointCloudIndex> observed;  // Y: observed points inside the mask
   EvaluationGrid selection_grid, refine_grid;
 };
 
 // Fills *observation; returns an empty string, or what is wrong with the input.
 std::string PrepareObservation(const Frame& frame, const Instance& instance, const SolverOptions& options,
-                               Observation* observation) {
+                               double diameter_m, Observation* observation) {
   observation->mask = instance.mask > 0;
-  const cv::Mat& mask = observation->mask;
-  observation->box = cv::boundingRect(mask);
-  const cv::Rect& box = observation->box;
-  if (box.area() == 0) return "the instance mask is empty";
-  observation->truncated = TouchesBorder(box, mask.size());
+  observation->box = cv::boundingRect(observation->mask);
+  if (observation->box.area() == 0) return "the instance mask is empty";
+  observation->truncated = TouchesBorder(observation->box, observation->mask.size());
   if (options.reject_border_masks && observation->truncated) {
     return "the instance mask touches the image border (object truncated; solved unless reject_border_masks)";
   }
   observation->depth = frame.depth.clone();
   cv::Mat& depth = observation->depth;
   cv::patchNaNs(depth, 0.0);
+  observation->score = options.score;
+  if (options.mask_trust == MaskTrust::kDepth) {
+    // The mask as evidence: its leaks removed, and the tolerance of "on the rendered
+    // surface" for the pixels it missed (region.h).
+    observation->region = ComputeObservedRegion(frame.camera, observation->mask, depth, diameter_m, options.region);
+    observation->mask = observation->region.mask;
+    observation->box = cv::boundingRect(observation->mask);
+    if (observation->box.area() == 0) return "the instance mask is empty once its leaks are removed";
+    observation->score.depth_evidence = true;
+    observation->score.surface_tolerance_m = observation->region.surface_tolerance_m;
+  }
+  const cv::Mat& mask = observation->mask;
+  const cv::Rect& box = observation->box;
   int& valid_depth = observation->valid_depth;
   observation->z_m = MedianMaskedDepth(mask, depth, &valid_depth);  // eq. (9), robust
   if (valid_depth < options.min_valid_depth_pixels) {
@@ -145,8 +159,9 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
     }
   }
   observation->observed = std::make_unique<PointCloudIndex>(std::move(observed));
-  observation->selection_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.selection_grid);
-  observation->refine_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.refine_grid);
+  const cv::Mat& support = observation->region.support;
+  observation->selection_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.selection_grid, support);
+  observation->refine_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.refine_grid, support);
   return "";
 }
 
@@ -583,10 +598,11 @@ PoseScore ScoreInstancePose(const Frame& frame, const Instance& instance, const 
   const std::string bad = ValidateInputs(frame, instance, bank, options);
   if (!bad.empty()) G6D_THROW(bad);
   Observation observation;
-  const std::string bad_observation = PrepareObservation(frame, instance, options, &observation);
+  const std::string bad_observation = PrepareObservation(frame, instance, options, bank.diameter_m, &observation);
   if (!bad_observation.empty()) G6D_THROW(bad_observation);
   RasterImage scratch;
-  return ScorePose(observation.refine_grid, bank.online_mesh, cam_from_object, observation.z_m, options.score, &scratch);
+  return ScorePose(observation.refine_grid, bank.online_mesh, cam_from_object, observation.z_m, observation.score,
+                   &scratch);
 }
 
 PoseResult EstimatePose(const Frame& frame, const Instance& instance, const TemplateBank& bank,
@@ -607,11 +623,16 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
     // ---- prepare the observation
     Stopwatch watch;
     Observation observation;
-    const std::string bad_observation = PrepareObservation(frame, instance, options, &observation);
+    const std::string bad_observation = PrepareObservation(frame, instance, options, bank.diameter_m, &observation);
     if (!bad_observation.empty()) return fail(Termination::kBadInput, bad_observation);
     result.truncated = observation.truncated;
+    stages.mask_given_pixels = observation.region.given_pixels;
+    stages.mask_support_leak = observation.region.support_leak;
+    stages.mask_far_leak = observation.region.far_leak;
+    stages.support_plane = observation.region.has_plane;
+    stages.surface_tolerance_m = observation.region.surface_tolerance_m;
     const PoseComparer comparer(AnswerSymmetries(bank), DistancePoints(bank.online_mesh, 64));
-    SolveContext context{frame, bank, options, executor, observation, comparer, options.score, options.score,
+    SolveContext context{frame, bank, options, executor, observation, comparer, observation.score, observation.score,
                          &bank.online_mesh, &clock, &stages};
     context.online_score.cull_backfaces = options.cull_backfaces && bank.online_mesh_closed;
     const bool coarse = options.coarse_selection_mesh && !bank.selection_mesh.faces.empty();
@@ -791,10 +812,10 @@ PoseResult TrackPose(const Frame& frame, const Instance& instance, const Templat
     SolverOptions prepare_options = options;
     prepare_options.max_observed_points = track_options.max_observed_points;
     Observation observation;
-    const std::string bad_observation = PrepareObservation(frame, instance, prepare_options, &observation);
+    const std::string bad_observation = PrepareObservation(frame, instance, prepare_options, bank.diameter_m, &observation);
     if (!bad_observation.empty()) return fail(Termination::kBadInput, bad_observation);
     result.truncated = observation.truncated;
-    ScoreOptions online_score = options.score;
+    ScoreOptions online_score = observation.score;
     online_score.cull_backfaces = options.cull_backfaces && bank.online_mesh_closed;
     stages.prepare_ms = watch.ElapsedMs();
 

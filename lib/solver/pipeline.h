@@ -18,6 +18,7 @@
 #include "solver/mhpo.h"
 #include "solver/observation.h"
 #include "solver/pnp.h"
+#include "solver/region.h"
 #include "solver/score.h"
 #include "templates/features.h"
 #include "templates/template_bank.h"
@@ -37,6 +38,12 @@ struct SolverOptions {
     orb.max_features = 500;
     return orb;
   }();                          ///< ORB on the query crop (the crop options come from the bank)
+  /// How the instance mask is read. kDepth (default): as evidence checked by the depth, its
+  /// leaks onto the support plane and the background removed and the object it missed
+  /// counted per pose (region.h); kExact: the paper's, every mask pixel is object and no
+  /// other pixel is (bit for bit the solver before masks were evidence).
+  MaskTrust mask_trust = MaskTrust::kDepth;
+  RegionOptions region;         ///< the depth's check of the mask (kDepth)
   MatchOptions match;           ///< τ_H = 64, N_P = 256
   PnpOptions pnp;
   int num_hypotheses = 18;      ///< N_H = K: hypotheses kept after observable selection
@@ -173,6 +180,14 @@ struct StageReport {
   /// Rank by Q_j (0 = best) of T_A's correspondence set and its Q_j / Q_1; -1 / 0 when unknown.
   int answer_set_rank = -1;
   double answer_quality_ratio = 0.0;
+  /// The mask as evidence (MaskTrust::kDepth): pixels of the caller's mask, how many of them
+  /// the depth put on the support plane or far behind the object (leaks, removed), whether a
+  /// support plane was found, and the tolerance of "on the rendered surface", metres.
+  int mask_given_pixels = 0;
+  int mask_support_leak = 0;
+  int mask_far_leak = 0;
+  bool support_plane = false;
+  double surface_tolerance_m = 0.0;
   double best_quality = 0.0;       ///< best Q_j
   double best_e_obs = 1.0;         ///< best E_obs among PnP poses
   double best_s_after_icp = 2.0;   ///< best S after ICP

@@ -12,6 +12,7 @@ std::string ScoreOptions::Check() const {
   if (!(omega_c >= 0.0 && omega_c <= 1.0)) out << "ScoreOptions.omega_c must be in [0, 1] (got " << omega_c << ")";
   else if (!(lambda_s >= 0.0 && std::isfinite(lambda_s))) out << "ScoreOptions.lambda_s must be finite and >= 0 (got " << lambda_s << ")";
   else if (!std::isfinite(occlusion_margin_m)) out << "ScoreOptions.occlusion_margin_m must be finite (got " << occlusion_margin_m << ")";
+  else if (!(surface_tolerance_m >= 0.0 && std::isfinite(surface_tolerance_m))) out << "ScoreOptions.surface_tolerance_m must be finite and >= 0 (got " << surface_tolerance_m << ")";
   return out.str();
 }
 
@@ -21,16 +22,26 @@ PoseScore ScoreRendering(const EvaluationGrid& grid, const RasterImage& rendered
   PoseScore score;
   int observed = 0, intersection = 0, union_count = 0, overlap = 0;
   double residual_sum = 0.0;
+  const bool has_support = options.depth_evidence && !grid.support.empty();
   for (int v = 0; v < grid.mask.rows; ++v) {
     const uint8_t* m = grid.mask.ptr<uint8_t>(v);
+    const uint8_t* support = has_support ? grid.support.ptr<uint8_t>(v) : nullptr;
     const float* d = grid.depth.ptr<float>(v);
     const float* r = rendered.depth.ptr<float>(v);
     for (int u = 0; u < grid.mask.cols; ++u) {
-      const bool in_observed = m[u] != 0;
+      bool in_observed = m[u] != 0;
       bool in_rendered = r[u] > 0.0f;
-      if (in_rendered && !in_observed && IsOccluded(r[u], d[u], options)) {
-        ++score.occluded_pixels;  // hidden by an unmasked occluder: neither for nor against
+      if (in_rendered && (!in_observed || options.depth_evidence) && IsOccluded(r[u], d[u], options)) {
+        // Hidden by an occluder that no mask covers, or (depth evidence) one that the mask
+        // leaked onto: neither for nor against.
+        ++score.occluded_pixels;
         in_rendered = false;
+        in_observed = false;
+      } else if (in_rendered && !in_observed) {
+        if (MissedByMask(r[u], d[u], support != nullptr && support[u] != 0, options)) {
+          ++score.recovered_pixels;  // object the mask missed: the depth says so
+          in_observed = true;
+        }
       }
       observed += in_observed;
       score.rendered_pixels += in_rendered;

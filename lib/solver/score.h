@@ -3,6 +3,7 @@
 /// Mask and depth consistency of a pose: coverage C and IoU J (eq. 6), observable error
 /// E_obs (eq. 7) and the physical consistency score S (eq. 12).
 
+#include <cmath>
 #include <string>
 
 #include <Eigen/Geometry>
@@ -27,6 +28,13 @@ struct ScoreOptions {
   /// pipeline sets it per mesh, TemplateBank::online_mesh_closed): it then changes no
   /// rendering and skips about half of the triangles.
   bool cull_backfaces = false;
+  /// Masks as evidence (MaskTrust::kDepth, region.h): a rendered pixel outside the observed
+  /// mask whose observed depth lies within `surface_tolerance_m` of the rendered depth, and
+  /// not on the support plane (EvaluationGrid::support), is object the mask missed: it
+  /// counts as observed in C, J and the depth residual. Off: the mask alone decides (the
+  /// paper). The pipeline sets both per instance (ObservedRegion::surface_tolerance_m).
+  bool depth_evidence = false;
+  double surface_tolerance_m = 0.0;
 
   std::string Check() const;
 };
@@ -41,6 +49,7 @@ struct PoseScore {
   int rendered_pixels = 0;      ///< |M̂| on the grid
   int overlap_pixels = 0;       ///< Σ w: overlap with valid observed depth
   int occluded_pixels = 0;      ///< rendered pixels explained by an unmasked occluder (not counted)
+  int recovered_pixels = 0;     ///< rendered pixels outside the mask that the depth puts on the object
 };
 
 /// True when a rendered pixel (depth `rendered_m` > 0) outside the observed mask is hidden
@@ -48,6 +57,14 @@ struct PoseScore {
 inline bool IsOccluded(float rendered_m, float observed_m, const ScoreOptions& options) {
   return options.occlusion_margin_m > 0.0 && observed_m > 0.0f &&
          observed_m < rendered_m - options.occlusion_margin_m;
+}
+
+/// True when a grid pixel outside the observed mask, rendered at `rendered_m` > 0 and seen
+/// at `observed_m`, is object that the mask missed (ScoreOptions::depth_evidence): its depth
+/// lies on the rendered surface and it is not on the support plane.
+inline bool MissedByMask(float rendered_m, float observed_m, bool on_support, const ScoreOptions& options) {
+  return options.depth_evidence && !on_support && observed_m > 0.0f &&
+         std::abs(observed_m - rendered_m) <= options.surface_tolerance_m;
 }
 
 /// Scores an already rendered image (on grid.camera) against the grid. `z_m` is z_M.

@@ -1,0 +1,250 @@
+#include "solver/region.h"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <sstream>
+#include <vector>
+
+#include <Eigen/Eigenvalues>
+#include <opencv2/imgproc.hpp>
+
+#include "core/error.h"
+
+namespace g6d {
+
+const char* MaskTrustName(MaskTrust trust) {
+  switch (trust) {
+    case MaskTrust::kExact: return "exact";
+    case MaskTrust::kDepth: return "depth";
+  }
+  return "unknown";
+}
+
+MaskTrust ParseMaskTrust(const std::string& name) {
+  if (name == "exact") return MaskTrust::kExact;
+  if (name == "depth") return MaskTrust::kDepth;
+  throw Error("mask trust must be exact or depth (got \"" + name + "\")");
+}
+
+std::string RegionOptions::Check() const {
+  std::ostringstream out;
+  if (!(sensor_noise_at_1m >= 0.0 && sensor_noise_at_1m < 0.1)) out << "RegionOptions.sensor_noise_at_1m must be in [0, 0.1) m (got " << sensor_noise_at_1m << ")";
+  else if (!(noise_sigmas > 0.0 && noise_sigmas <= 10.0)) out << "RegionOptions.noise_sigmas must be in (0, 10] (got " << noise_sigmas << ")";
+  else if (!(pose_tolerance_fraction >= 0.0 && pose_tolerance_fraction <= 0.5)) out << "RegionOptions.pose_tolerance_fraction must be in [0, 0.5] (got " << pose_tolerance_fraction << ")";
+  else if (!(ring_fraction > 0.0 && ring_fraction <= 2.0)) out << "RegionOptions.ring_fraction must be in (0, 2] (got " << ring_fraction << ")";
+  else if (plane_iterations < 1) out << "RegionOptions.plane_iterations must be >= 1 (got " << plane_iterations << ")";
+  else if (plane_samples < 3) out << "RegionOptions.plane_samples must be >= 3 (got " << plane_samples << ")";
+  else if (!(min_plane_fraction > 0.0 && min_plane_fraction <= 1.0)) out << "RegionOptions.min_plane_fraction must be in (0, 1] (got " << min_plane_fraction << ")";
+  else if (min_plane_points < 3) out << "RegionOptions.min_plane_points must be >= 3 (got " << min_plane_points << ")";
+  else if (!(far_fraction > 0.0)) out << "RegionOptions.far_fraction must be > 0 (got " << far_fraction << ")";
+  return out.str();
+}
+
+namespace {
+
+struct Plane {
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+  double offset = 0.0;
+  double Distance(const Eigen::Vector3d& p) const { return normal.dot(p) + offset; }
+};
+
+// Least-squares plane through `points` (their centroid and the smallest principal axis).
+Plane FitPlane(const std::vector<Eigen::Vector3d>& points) {
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : points) centroid += p;
+  centroid /= static_cast<double>(points.size());
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& p : points) scatter += (p - centroid) * (p - centroid).transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(scatter);
+  Plane plane;
+  plane.normal = eigen.eigenvectors().col(0).normalized();
+  plane.offset = -plane.normal.dot(centroid);
+  return plane;
+}
+
+// The dominant plane of `points` by RANSAC (inliers within `tolerance_m`), refitted to its
+// inliers; *inliers receives their count.
+Plane DominantPlane(const std::vector<Eigen::Vector3d>& points, double tolerance_m, const RegionOptions& options,
+                    int* inliers) {
+  std::mt19937_64 random(options.seed);
+  std::uniform_int_distribution<size_t> pick(0, points.size() - 1);
+  Plane best;
+  int best_count = -1;
+  for (int iteration = 0; iteration < options.plane_iterations; ++iteration) {
+    const Eigen::Vector3d& a = points[pick(random)];
+    const Eigen::Vector3d& b = points[pick(random)];
+    const Eigen::Vector3d& c = points[pick(random)];
+    const Eigen::Vector3d normal = (b - a).cross(c - a);
+    const double length = normal.norm();
+    if (!(length > 1e-12)) continue;
+    Plane plane;
+    plane.normal = normal / length;
+    plane.offset = -plane.normal.dot(a);
+    int count = 0;
+    for (const Eigen::Vector3d& p : points) count += std::abs(plane.Distance(p)) <= tolerance_m;
+    if (count > best_count) {
+      best_count = count;
+      best = plane;
+    }
+  }
+  if (best_count < 3) {
+    *inliers = 0;
+    return best;
+  }
+  std::vector<Eigen::Vector3d> inlier_points;
+  for (const Eigen::Vector3d& p : points) {
+    if (std::abs(best.Distance(p)) <= tolerance_m) inlier_points.push_back(p);
+  }
+  Plane refit = FitPlane(inlier_points);
+  int count = 0;
+  for (const Eigen::Vector3d& p : points) count += std::abs(refit.Distance(p)) <= tolerance_m;
+  if (count < best_count) {
+    refit = best;
+    count = best_count;
+  }
+  if (refit.offset < 0.0) {  // the camera (the origin) on the positive side
+    refit.normal = -refit.normal;
+    refit.offset = -refit.offset;
+  }
+  *inliers = count;
+  return refit;
+}
+
+}  // namespace
+
+ObservedRegion ComputeObservedRegion(const Camera& camera, const cv::Mat& mask, const cv::Mat& depth,
+                                     double diameter_m, const RegionOptions& options) {
+  G6D_CHECK(mask.type() == CV_8U && depth.type() == CV_32F && mask.size() == depth.size());
+  G6D_CHECK(mask.cols == camera.width && mask.rows == camera.height);
+  ObservedRegion region;
+  region.mask = mask > 0;
+  region.given_pixels = cv::countNonZero(region.mask);
+  const cv::Rect box = cv::boundingRect(region.mask);
+  if (box.area() == 0) return region;
+
+  // The mask's points and their median depth (the object's distance, robust to leaks).
+  std::vector<float> mask_depths;
+  for (int v = box.y; v < box.y + box.height; ++v) {
+    const uint8_t* m = region.mask.ptr<uint8_t>(v);
+    const float* d = depth.ptr<float>(v);
+    for (int u = box.x; u < box.x + box.width; ++u) {
+      if (m[u] && d[u] > 0.0f && std::isfinite(d[u])) mask_depths.push_back(d[u]);
+    }
+  }
+  if (mask_depths.empty()) return region;
+  auto median_of = [](std::vector<float> values) {
+    const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+    std::nth_element(values.begin(), middle, values.end());
+    return static_cast<double>(*middle);
+  };
+  const double z_median = median_of(mask_depths);
+  const double noise_m = options.noise_sigmas * options.sensor_noise_at_1m * z_median * z_median;
+  region.surface_tolerance_m = noise_m + options.pose_tolerance_fraction * diameter_m;
+  // The plane's inlier band: the sensor's noise, never below a millimetre (depth images
+  // are quantized to about that).
+  const double plane_tolerance_m = std::max(noise_m, 1e-3);
+
+  // ---- the support plane, fitted to the valid depth around the mask
+  const int ring = static_cast<int>(std::ceil(options.ring_fraction * std::max(box.width, box.height)));
+  const cv::Rect roi = cv::Rect(box.x - ring, box.y - ring, box.width + 2 * ring, box.height + 2 * ring) &
+                       cv::Rect(0, 0, mask.cols, mask.rows);
+  int ring_valid = 0;
+  for (int v = roi.y; v < roi.y + roi.height; ++v) {
+    const uint8_t* m = region.mask.ptr<uint8_t>(v);
+    const float* d = depth.ptr<float>(v);
+    for (int u = roi.x; u < roi.x + roi.width; ++u) ring_valid += !m[u] && d[u] > 0.0f && std::isfinite(d[u]);
+  }
+  Plane plane;
+  if (ring_valid >= options.min_plane_points) {
+    const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(ring_valid) / options.plane_samples))));
+    std::vector<Eigen::Vector3d> ring_points;
+    for (int v = roi.y + stride / 2; v < roi.y + roi.height; v += stride) {
+      const uint8_t* m = region.mask.ptr<uint8_t>(v);
+      const float* d = depth.ptr<float>(v);
+      for (int u = roi.x + stride / 2; u < roi.x + roi.width; u += stride) {
+        if (!m[u] && d[u] > 0.0f && std::isfinite(d[u])) ring_points.push_back(camera.Backproject(PixelCentre(u, v), d[u]));
+      }
+    }
+    int inliers = 0;
+    if (ring_points.size() >= 3) plane = DominantPlane(ring_points, plane_tolerance_m, options, &inliers);
+    const bool large = inliers >= options.min_plane_points &&
+                       inliers >= options.min_plane_fraction * static_cast<double>(ring_points.size());
+    if (large) {
+      // The object stands in front of its support: a fifth of the mask's points at least
+      // lie clearly on the camera side of the plane (a plane through the object's own
+      // face, or one in front of it, is no support).
+      int in_front = 0, counted = 0;
+      for (int v = box.y; v < box.y + box.height; v += stride) {
+        const uint8_t* m = region.mask.ptr<uint8_t>(v);
+        const float* d = depth.ptr<float>(v);
+        for (int u = box.x; u < box.x + box.width; u += stride) {
+          if (!m[u] || !(d[u] > 0.0f) || !std::isfinite(d[u])) continue;
+          ++counted;
+          in_front += plane.Distance(camera.Backproject(PixelCentre(u, v), d[u])) > 2.0 * plane_tolerance_m;
+        }
+      }
+      region.has_plane = counted > 0 && in_front >= 0.2 * counted;
+    }
+  }
+
+  // ---- leaks: mask pixels on the support, or far behind the object
+  cv::Mat kept = region.mask.clone();
+  if (region.has_plane) {
+    region.plane_normal = plane.normal;
+    region.plane_offset_m = plane.offset;
+    region.support = cv::Mat::zeros(mask.size(), CV_8U);
+    for (int v = roi.y; v < roi.y + roi.height; ++v) {
+      const float* d = depth.ptr<float>(v);
+      uint8_t* s = region.support.ptr<uint8_t>(v);
+      uint8_t* k = kept.ptr<uint8_t>(v);
+      for (int u = roi.x; u < roi.x + roi.width; ++u) {
+        if (!(d[u] > 0.0f) || !std::isfinite(d[u])) continue;
+        // On the plane or behind it (seen through a gap, the floor under a table).
+        if (plane.Distance(camera.Backproject(PixelCentre(u, v), d[u])) > plane_tolerance_m) continue;
+        s[u] = 255;
+        if (k[u]) {
+          k[u] = 0;
+          ++region.support_leak;
+        }
+      }
+    }
+  }
+  std::vector<float> object_depths;
+  for (int v = box.y; v < box.y + box.height; ++v) {
+    const uint8_t* k = kept.ptr<uint8_t>(v);
+    const float* d = depth.ptr<float>(v);
+    for (int u = box.x; u < box.x + box.width; ++u) {
+      if (k[u] && d[u] > 0.0f && std::isfinite(d[u])) object_depths.push_back(d[u]);
+    }
+  }
+  if (!object_depths.empty()) {
+    // No visible point of the object lies farther than this from the median one: beyond
+    // it lies the background behind, or an occluder in front that the mask leaked onto.
+    const double median_m = median_of(object_depths);
+    const double reach_m = options.far_fraction * diameter_m;
+    for (int v = box.y; v < box.y + box.height; ++v) {
+      uint8_t* k = kept.ptr<uint8_t>(v);
+      const float* d = depth.ptr<float>(v);
+      for (int u = box.x; u < box.x + box.width; ++u) {
+        if (k[u] && d[u] > 0.0f && std::abs(d[u] - median_m) > reach_m) {
+          k[u] = 0;
+          ++region.far_leak;
+        }
+      }
+    }
+  }
+  const int leaks = region.support_leak + region.far_leak;
+  if (static_cast<double>(mask_depths.size() - static_cast<size_t>(std::min<int>(leaks, static_cast<int>(mask_depths.size())))) <
+      0.2 * static_cast<double>(mask_depths.size())) {
+    // The depth disagrees with most of the mask: keep the caller's word.
+    region.support_leak = region.far_leak = 0;
+    region.has_plane = false;
+    region.support.release();
+    return region;
+  }
+  region.mask = kept;
+  return region;
+}
+
+}  // namespace g6d

@@ -1,0 +1,90 @@
+#pragma once
+/// @file region.h
+/// The observed region of one instance: what the caller's mask says, checked by the depth.
+///
+/// A segmenter's mask is evidence, not truth: it leaks onto the table and the background
+/// behind the object, and it misses parts near the boundary. The depth knows better:
+/// - a mask pixel on the support surface the object stands on (a plane fitted to the depth
+///   around the mask) is a leak, and so is one far behind anything the object can occupy;
+/// - a pixel outside the mask whose depth lies on a pose's rendered surface is object that
+///   the mask missed (decided per pose, in ScoreRendering, with the tolerance set here).
+/// The paper takes the mask as given (MaskTrust::kExact keeps that behaviour).
+
+#include <cstdint>
+#include <string>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "core/camera.h"
+
+namespace g6d {
+
+/// How the solver reads the caller's mask.
+enum class MaskTrust {
+  kExact,  ///< the paper's: every mask pixel is object, every other pixel is not
+  kDepth,  ///< evidence checked by the depth (this file and ScoreOptions::depth_evidence)
+};
+
+/// "exact" / "depth".
+const char* MaskTrustName(MaskTrust trust);
+/// Parses "exact" or "depth"; throws g6d::Error naming the bad value.
+MaskTrust ParseMaskTrust(const std::string& name);
+
+/// Options of ComputeObservedRegion().
+struct RegionOptions {
+  /// Depth noise of the sensor at 1 m, metres; the standard deviation grows with z² (the
+  /// structured-light and stereo model; Kinect / Xtion class sensors: about 1.5 mm at 1 m).
+  double sensor_noise_at_1m = 1.5e-3;
+  /// Noise standard deviations a depth may differ by and still lie on a surface.
+  double noise_sigmas = 3.0;
+  /// The part of the surface tolerance that comes from the pose itself: a pose good enough to
+  /// be refined (within a few percent of the diameter) renders depths off by about this
+  /// fraction of the object's diameter.
+  double pose_tolerance_fraction = 0.03;
+  /// The support plane is fitted to the valid depth in a ring around the mask box, this
+  /// fraction of the box's longer side wide on each side.
+  double ring_fraction = 0.5;
+  /// RANSAC over at most `plane_samples` ring points for `plane_iterations` iterations.
+  int plane_iterations = 150;
+  int plane_samples = 2000;
+  /// A plane is the support only when at least this fraction of the ring's points, and at
+  /// least `min_plane_points`, lie on it, and the mask's median point is in front of it.
+  double min_plane_fraction = 0.25;
+  int min_plane_points = 100;
+  /// A mask pixel farther from the mask's median depth than this fraction of the diameter
+  /// (behind: the background; in front: an occluder) is a leak: no visible point of the
+  /// object can lie there.
+  double far_fraction = 0.75;
+  /// Seed of the plane fit's sampling (deterministic for a given frame).
+  uint64_t seed = 1;
+
+  /// Empty when valid, else names the bad field.
+  std::string Check() const;
+};
+
+/// The observed region and what the depth changed.
+struct ObservedRegion {
+  cv::Mat mask;     ///< CV_8U 0/255, frame size: the given mask less its leaks
+  cv::Mat support;  ///< CV_8U 0/255, frame size: pixels on the support plane; empty = no plane
+  bool has_plane = false;
+  /// The support plane: n · p + offset = 0 for points p in the camera frame (metres), n a
+  /// unit normal pointing towards the camera side (where the object is).
+  Eigen::Vector3d plane_normal = Eigen::Vector3d::UnitZ();
+  double plane_offset_m = 0.0;
+  /// A depth within this of a rendered surface lies on it (metres): noise_sigmas · σ(z) at
+  /// the mask's median depth plus pose_tolerance_fraction · diameter.
+  double surface_tolerance_m = 0.0;
+  int given_pixels = 0;    ///< pixels of the caller's mask
+  int support_leak = 0;    ///< of them on the support plane
+  int far_leak = 0;        ///< of them far behind or in front of the object
+};
+
+/// Checks the caller's mask (CV_8U, non-zero = object) against `depth` (CV_32F metres,
+/// 0 = invalid). `diameter_m` is the object's. Pixels without valid depth stay as given.
+/// When removing the leaks would leave fewer than a fifth of the mask's valid-depth pixels,
+/// the mask is kept as given (the depth disagrees too much to overrule the caller).
+ObservedRegion ComputeObservedRegion(const Camera& camera, const cv::Mat& mask, const cv::Mat& depth,
+                                     double diameter_m, const RegionOptions& options);
+
+}  // namespace g6d
