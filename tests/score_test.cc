@@ -119,7 +119,8 @@ TEST(ScoreRendering, DepthEvidenceCountsWhatTheMaskMissed) {
 }
 
 // Masks as evidence: a mask pixel that the depth puts in front of the rendered surface is
-// an occluder the mask leaked onto: neutral, not a depth residual.
+// an occluder the mask leaked onto: not rendered (a miss for every pose alike), and no
+// depth residual.
 TEST(ScoreRendering, DepthEvidenceTreatsAnOccluderInTheMaskAsNeutral) {
   EvaluationGrid grid = MakeGrid();
   grid.depth(cv::Rect(2, 2, 1, 5)).setTo(0.8f);  // a 5 px occluder inside the mask
@@ -134,7 +135,8 @@ TEST(ScoreRendering, DepthEvidenceTreatsAnOccluderInTheMaskAsNeutral) {
   const PoseScore checked = ScoreRendering(grid, rendered, 1.0, evidence);
   EXPECT_EQ(checked.occluded_pixels, 5);
   EXPECT_NEAR(checked.depth_residual, 0.0, 1e-9);
-  EXPECT_DOUBLE_EQ(checked.iou, 1.0);
+  EXPECT_DOUBLE_EQ(checked.iou, 15.0 / 20.0);
+  EXPECT_LT(checked.s, as_given.s);
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
+#include "render/raster.h"
 
 namespace g6d {
 
@@ -168,8 +169,12 @@ ObservedRegion ComputeObservedRegion(const Camera& camera, const cv::Mat& mask, 
     }
     int inliers = 0;
     if (ring_points.size() >= 3) plane = DominantPlane(ring_points, plane_tolerance_m, options, &inliers);
+    // A support fills much of the ring, not just much of its valid depth (a neighbour's
+    // face beside an object whose surroundings have no depth is no support).
+    const double ring_pixels = static_cast<double>(roi.area() - cv::countNonZero(region.mask(roi)));
+    const double sampled_fraction = static_cast<double>(inliers) / std::max<size_t>(1, ring_points.size());
     const bool large = inliers >= options.min_plane_points &&
-                       inliers >= options.min_plane_fraction * static_cast<double>(ring_points.size());
+                       sampled_fraction * ring_valid >= options.min_plane_fraction * ring_pixels;
     if (large) {
       // The object stands in front of its support: a fifth of the mask's points at least
       // lie clearly on the camera side of the plane (a plane through the object's own
@@ -245,6 +250,44 @@ ObservedRegion ComputeObservedRegion(const Camera& camera, const cv::Mat& mask, 
   }
   region.mask = kept;
   return region;
+}
+
+cv::Mat CorrectedMask(const Camera& camera, const Mesh& mesh, const Eigen::Isometry3d& cam_from_object,
+                      const cv::Mat& depth, double occlusion_margin_m, bool cull_backfaces, const cv::Rect& roi) {
+  G6D_CHECK(depth.type() == CV_32F && depth.cols == camera.width && depth.rows == camera.height);
+  cv::Mat corrected = cv::Mat::zeros(depth.size(), CV_8U);
+  const cv::Rect area = roi & cv::Rect(0, 0, camera.width, camera.height);
+  if (area.area() == 0) return corrected;
+  RasterOptions options;
+  options.want_face_id = false;
+  options.cull_backfaces = cull_backfaces;
+  RasterImage rendered;
+  Rasterize(mesh, camera.Cropped(area.x, area.y, area.width, area.height), cam_from_object, options, &rendered);
+  for (int v = 0; v < area.height; ++v) {
+    const float* r = rendered.depth.ptr<float>(v);
+    const float* d = depth.ptr<float>(area.y + v) + area.x;
+    uint8_t* out = corrected.ptr<uint8_t>(area.y + v) + area.x;
+    for (int u = 0; u < area.width; ++u) {
+      if (!(r[u] > 0.0f)) continue;
+      const bool hidden = occlusion_margin_m > 0.0 && d[u] > 0.0f && d[u] < r[u] - occlusion_margin_m;
+      out[u] = hidden ? 0 : 255;
+    }
+  }
+  return corrected;
+}
+
+double MaskIntersectionOverUnion(const cv::Mat& a, const cv::Mat& b) {
+  G6D_CHECK(a.type() == CV_8U && b.type() == CV_8U && a.size() == b.size());
+  int intersection = 0, union_count = 0;
+  for (int v = 0; v < a.rows; ++v) {
+    const uint8_t* pa = a.ptr<uint8_t>(v);
+    const uint8_t* pb = b.ptr<uint8_t>(v);
+    for (int u = 0; u < a.cols; ++u) {
+      intersection += pa[u] && pb[u];
+      union_count += pa[u] || pb[u];
+    }
+  }
+  return union_count > 0 ? static_cast<double>(intersection) / union_count : 0.0;
 }
 
 }  // namespace g6d

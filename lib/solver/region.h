@@ -14,9 +14,11 @@
 #include <string>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
 #include "core/camera.h"
+#include "mesh/mesh.h"
 
 namespace g6d {
 
@@ -48,14 +50,15 @@ struct RegionOptions {
   /// RANSAC over at most `plane_samples` ring points for `plane_iterations` iterations.
   int plane_iterations = 150;
   int plane_samples = 2000;
-  /// A plane is the support only when at least this fraction of the ring's points, and at
-  /// least `min_plane_points`, lie on it, and the mask's median point is in front of it.
+  /// A plane is the support only when it covers at least this fraction of the ring's pixels
+  /// (at least `min_plane_points` of the sampled points), and a fifth of the mask's points
+  /// lie clearly in front of it.
   double min_plane_fraction = 0.25;
   int min_plane_points = 100;
   /// A mask pixel farther from the mask's median depth than this fraction of the diameter
-  /// (behind: the background; in front: an occluder) is a leak: no visible point of the
-  /// object can lie there.
-  double far_fraction = 0.75;
+  /// (behind: the background; in front: an occluder) is a leak: two visible points of the
+  /// object are never farther apart than the diameter.
+  double far_fraction = 1.0;
   /// Seed of the plane fit's sampling (deterministic for a given frame).
   uint64_t seed = 1;
 
@@ -86,5 +89,16 @@ struct ObservedRegion {
 /// the mask is kept as given (the depth disagrees too much to overrule the caller).
 ObservedRegion ComputeObservedRegion(const Camera& camera, const cv::Mat& mask, const cv::Mat& depth,
                                      double diameter_m, const RegionOptions& options);
+
+/// The mask a pose implies: the pixels of `mesh` rendered at `cam_from_object` that the
+/// depth does not show to be hidden (observed depth in front of the rendered surface by more
+/// than `occlusion_margin_m`; pixels without depth stay). CV_8U 0/255, frame size; rendered
+/// at full resolution inside `roi` (clipped to the frame) only. With a correct pose this is
+/// the object's visible silhouette: the caller's mask with its leaks and misses corrected.
+cv::Mat CorrectedMask(const Camera& camera, const Mesh& mesh, const Eigen::Isometry3d& cam_from_object,
+                      const cv::Mat& depth, double occlusion_margin_m, bool cull_backfaces, const cv::Rect& roi);
+
+/// IoU of two masks of one size (non-zero = in); 0 when both are empty.
+double MaskIntersectionOverUnion(const cv::Mat& a, const cv::Mat& b);
 
 }  // namespace g6d

@@ -32,11 +32,12 @@ PoseScore ScoreRendering(const EvaluationGrid& grid, const RasterImage& rendered
       bool in_observed = m[u] != 0;
       bool in_rendered = r[u] > 0.0f;
       if (in_rendered && (!in_observed || options.depth_evidence) && IsOccluded(r[u], d[u], options)) {
-        // Hidden by an occluder that no mask covers, or (depth evidence) one that the mask
-        // leaked onto: neither for nor against.
+        // Hidden by an occluder that no mask covers: neither for nor against. Inside the
+        // mask (depth evidence) the mask leaked onto an occluder, or the pose lies behind
+        // the observed surface: not rendered, a miss for every pose alike, and no depth
+        // residual (an occluder's is unbounded).
         ++score.occluded_pixels;
         in_rendered = false;
-        in_observed = false;
       } else if (in_rendered && !in_observed) {
         if (MissedByMask(r[u], d[u], support != nullptr && support[u] != 0, options)) {
           ++score.recovered_pixels;  // object the mask missed: the depth says so
