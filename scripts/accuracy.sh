@@ -18,6 +18,8 @@
 # foam brick (by name), which BOP's YCB-V evaluation treats as symmetric.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# shellcheck source=scripts/lib_g6d.sh
+source scripts/lib_g6d.sh
 DATA_DIR="${DATA_DIR:-../shared/data}"
 OUT="${OUT:-out/accuracy}"
 BUILD_DIR="${BUILD_DIR:-build}"
@@ -29,12 +31,7 @@ fi
 if [[ "${G6D_SKIP_BUILD:-0}" != "1" ]]; then
   BUILD_DIR="${BUILD_DIR}" bash scripts/setup.sh
 fi
-if [[ -z "${DATASETS:-}" ]]; then
-  DATASETS=""
-  for d in "${DATA_DIR}"/*/; do
-    [[ -f "${d}/test_targets_bop19.json" && -f "${d}/models/models_info.json" ]] && DATASETS+="$(basename "${d}") "
-  done
-fi
+if [[ -z "${DATASETS:-}" ]]; then DATASETS="$(g6d_bop_datasets "${DATA_DIR}")"; fi
 mkdir -p "${OUT}"
 CALIBRATION=()
 for name in ${DATASETS}; do

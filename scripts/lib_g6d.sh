@@ -91,3 +91,13 @@ g6d_stop_service() {
 g6d_service_alive() {
   [[ -n "${G6D_SERVICE_PID}" ]] && kill -0 "${G6D_SERVICE_PID}" 2> /dev/null
 }
+
+# g6d_bop_datasets DATA_DIR: the names of the folders of DATA_DIR that are BOP datasets with
+# BOP'19 targets (test_targets_bop19.json and models/models_info.json), space-separated.
+g6d_bop_datasets() {
+  local d names=""
+  for d in "$1"/*/; do
+    [[ -f "${d}/test_targets_bop19.json" && -f "${d}/models/models_info.json" ]] && names+="$(basename "${d}") "
+  done
+  echo "${names}"
+}

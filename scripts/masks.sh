@@ -39,12 +39,7 @@ fi
 if [[ "${G6D_SKIP_BUILD:-0}" != "1" ]]; then
   BUILD_DIR="${BUILD_DIR}" bash scripts/setup.sh
 fi
-if [[ -z "${DATASETS:-}" ]]; then
-  DATASETS=""
-  for d in "${DATA_DIR}"/*/; do
-    [[ -f "${d}/test_targets_bop19.json" && -f "${d}/models/models_info.json" ]] && DATASETS+="$(basename "${d}") "
-  done
-fi
+if [[ -z "${DATASETS:-}" ]]; then DATASETS="$(g6d_bop_datasets "${DATA_DIR}")"; fi
 if [[ -z "${DATASETS// /}" ]]; then
   echo "[masks] no dataset with test_targets_bop19.json in ${DATA_DIR}: nothing to measure, skipped"
   exit 0

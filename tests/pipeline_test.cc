@@ -6,6 +6,7 @@
 #include <random>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
 #include "core/se3.h"
@@ -81,6 +82,34 @@ TEST_F(PipelineTest, SameResultWithOneAndTwoThreads) {
   EXPECT_TRUE(a.cam_from_object.matrix() == b.cam_from_object.matrix());
   EXPECT_EQ(a.score, b.score);
   EXPECT_EQ(a.stages.pnp_hypotheses, b.stages.pnp_hypotheses);
+}
+
+// Masks as evidence: a mask eroded by 4 px still gives the right pose, the object the mask
+// missed is counted by the depth (S_A lower than reading the mask as exact), and the answer
+// carries the mask it implies with its IoU with the caller's mask (lower than with the
+// true visible mask: the segmenter's error, made visible).
+TEST_F(PipelineTest, AnErodedMaskIsCorrectedByTheDepthAndItsFitIsReported) {
+  GlRenderer renderer(*mesh_);
+  std::mt19937_64 rng(11);
+  ThreadPool pool(2);
+  const Eigen::Isometry3d truth = test::RandomPose(kCamera, 0.6, 0.7, &rng);
+  const test::SyntheticView view = test::RenderSyntheticView(&renderer, *mesh_, kCamera, truth, {});
+  cv::Mat eroded;
+  cv::erode(view.mask, eroded, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(9, 9)));
+  const PoseResult result = EstimatePose(MakeFrame(view), {"box", eroded}, *bank_, SolverOptions(), &pool);
+  ASSERT_TRUE(result.success) << result.message;
+  EXPECT_LT(ComputeAdd(result.cam_from_object, truth, mesh_->vertices), 0.1 * bank_->diameter_m);
+  ASSERT_EQ(result.corrected_mask.size(), view.mask.size());
+  const double iou_with_truth = MaskIntersectionOverUnion(result.corrected_mask, view.mask > 0);
+  EXPECT_GT(iou_with_truth, 0.9);
+  EXPECT_NEAR(result.mask_iou, MaskIntersectionOverUnion(result.corrected_mask, eroded > 0), 1e-12);
+  EXPECT_LT(result.mask_iou, iou_with_truth);
+  SolverOptions exact;
+  exact.mask_trust = MaskTrust::kExact;
+  const PoseResult as_given = EstimatePose(MakeFrame(view), {"box", eroded}, *bank_, exact, &pool);
+  ASSERT_TRUE(as_given.success) << as_given.message;
+  EXPECT_LT(result.score, as_given.score);
+  EXPECT_EQ(as_given.mask_refined_rounds, 0);
 }
 
 TEST_F(PipelineTest, PostRefinementNeverRaisesTheScore) {

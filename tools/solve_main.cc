@@ -92,6 +92,9 @@ int main(int argc, char** argv) {
   app.add_flag("--reject-border-masks", reject_border, "refuse a mask that touches the image border (a truncated object)");
   app.add_option("--overlay", overlay_path, "write the image with the projected model contour and axes");
   app.add_option("--json", json_path, "write the result as JSON");
+  std::string corrected_mask_path;
+  app.add_option("--corrected-mask", corrected_mask_path,
+                 "write the mask the answer implies (its silhouette less what the depth shows hidden) as a PNG");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -143,6 +146,15 @@ int main(int argc, char** argv) {
                 s.query_features, s.correspondence_sets, s.best_quality, s.pnp_hypotheses, s.kept_hypotheses,
                 s.best_e_obs, s.icp_converged, s.best_s_after_icp, result.score);
     if (s.post_refine_ran) std::printf("post-refine %s\n", s.post_refine_accepted ? "accepted (lower S)" : "ran, T_A kept");
+    if (result.success) {
+      std::printf("mask        %s: %d px given", mask_trust.c_str(), s.mask_given_pixels);
+      if (s.mask_support_leak + s.mask_far_leak > 0 || s.support_plane) {
+        std::printf(", leaks %d on the support plane%s, %d off the object's depth", s.mask_support_leak,
+                    s.support_plane ? "" : " (none found)", s.mask_far_leak);
+      }
+      std::printf("; the answer's mask has IoU %.3f with it%s\n", result.mask_iou,
+                  result.mask_refined_rounds > 0 ? " (pose refined on it)" : "");
+    }
     std::printf("time (ms)  ");
     for (const g6d::StageTime& stage : g6d::StageTimes(s)) std::printf(" %s %.1f ", stage.name, stage.ms);
     std::printf("\n");
@@ -154,6 +166,12 @@ int main(int argc, char** argv) {
       if (result.success) DrawOverlay(bank, frame.camera, result.cam_from_object, &overlay);
       if (!cv::imwrite(overlay_path, overlay)) G6D_THROW("--overlay: cannot write '" << overlay_path << "'");
       std::printf("overlay     %s\n", overlay_path.c_str());
+    }
+    if (!corrected_mask_path.empty() && result.success) {
+      if (!cv::imwrite(corrected_mask_path, result.corrected_mask)) {
+        G6D_THROW("--corrected-mask: cannot write '" << corrected_mask_path << "'");
+      }
+      std::printf("mask out    %s\n", corrected_mask_path.c_str());
     }
     if (!json_path.empty()) {
       nlohmann::json j;
@@ -186,7 +204,9 @@ int main(int argc, char** argv) {
                    {"support_plane", s.support_plane},
                    {"support_leak_pixels", s.mask_support_leak},
                    {"far_leak_pixels", s.mask_far_leak},
-                   {"surface_tolerance_m", s.surface_tolerance_m}};
+                   {"surface_tolerance_m", s.surface_tolerance_m},
+                   {"answer_mask_iou", result.mask_iou},
+                   {"refined_rounds", result.mask_refined_rounds}};
       j["cut_short"] = result.cut_short;
       for (const g6d::StageTime& stage : g6d::StageTimes(s)) j["time_ms"][stage.name] = stage.ms;
       std::ofstream out(json_path);

@@ -37,6 +37,7 @@ std::string SolverOptions::Check() const {
   else if (icp_probe_iterations < 0) out << "SolverOptions.icp_probe_iterations must be >= 0 (got " << icp_probe_iterations << ")";
   else if (icp_finish_hypotheses < 1) out << "SolverOptions.icp_finish_hypotheses must be >= 1 (got " << icp_finish_hypotheses << ")";
   else if (!(pnp_min_quality_ratio >= 0.0 && pnp_min_quality_ratio <= 1.0)) out << "SolverOptions.pnp_min_quality_ratio must be in [0, 1] (got " << pnp_min_quality_ratio << ")";
+  else if (mask_refine_rounds < 0) out << "SolverOptions.mask_refine_rounds must be >= 0 (got " << mask_refine_rounds << ")";
   else if (!(distinct_pose_fraction >= 0.0 && distinct_pose_fraction < 1.0)) out << "SolverOptions.distinct_pose_fraction must be in [0, 1) (got " << distinct_pose_fraction << ")";
   else if (!(ambiguity_distance_fraction > 0.0 && ambiguity_distance_fraction < 10.0)) out << "SolverOptions.ambiguity_distance_fraction must be in (0, 10) (got " << ambiguity_distance_fraction << ")";
   else if (!(ambiguity_margin >= 0.0 && ambiguity_margin < 2.0)) out << "SolverOptions.ambiguity_margin must be in [0, 2) (got " << ambiguity_margin << ")";
@@ -591,6 +592,48 @@ std::vector<PoseScore> RefineHypothesesByIcp(const SolveContext& c, std::vector<
   return scores;
 }
 
+// The area the corrected mask is rendered in: the caller's mask box grown by its longer
+// side on each side (an eroded or cut mask can be much smaller than the object).
+cv::Rect CorrectionArea(const cv::Rect& box) {
+  const int grow = std::max(box.width, box.height);
+  return cv::Rect(box.x - grow, box.y - grow, box.width + 2 * grow, box.height + 2 * grow);
+}
+
+// After the solve (MaskTrust::kDepth): ICP + MHPO from T_A on the mask T_A implies, kept
+// while S against the caller's mask (as evidence) falls; then the corrected mask of the final
+// T_A and its IoU with the caller's mask go into *result.
+void RefineWithCorrectedMask(const SolveContext& c, const Instance& instance, PoseResult* result) {
+  const SolverOptions& options = c.options;
+  const Observation& observation = c.observation;
+  const cv::Mat given = instance.mask > 0;
+  const cv::Rect area = CorrectionArea(cv::boundingRect(given));
+  auto corrected_at = [&](const Eigen::Isometry3d& pose) {
+    return CorrectedMask(c.frame.camera, c.bank.online_mesh, pose, observation.depth,
+                         c.online_score.occlusion_margin_m, c.online_score.cull_backfaces, area);
+  };
+  cv::Mat corrected = corrected_at(result->cam_from_object);
+  if (options.mask_trust == MaskTrust::kDepth) {
+    for (int round = 0; round < options.mask_refine_rounds && !c.clock->OutOfTime(); ++round) {
+      if (cv::countNonZero(corrected) < options.min_valid_depth_pixels) break;
+      SolverOptions track_options = options;
+      track_options.mask_refine_rounds = 0;
+      const PoseResult again = TrackPose(c.frame, Instance{instance.object_id, corrected}, c.bank, track_options,
+                                         TrackSolveOptions(), {result->cam_from_object}, c.executor);
+      if (!again.success) break;
+      RasterImage scratch;
+      const PoseScore score = ScorePose(observation.refine_grid, c.bank.online_mesh, again.cam_from_object,
+                                        observation.z_m, c.online_score, &scratch);
+      if (!(score.s < result->details.s)) break;
+      result->cam_from_object = again.cam_from_object;
+      result->details = score;
+      ++result->mask_refined_rounds;
+      corrected = corrected_at(result->cam_from_object);
+    }
+  }
+  result->mask_iou = MaskIntersectionOverUnion(corrected, given);
+  result->corrected_mask = corrected;
+}
+
 }  // namespace
 
 PoseScore ScoreInstancePose(const Frame& frame, const Instance& instance, const TemplateBank& bank,
@@ -760,6 +803,10 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
       stages.answer_set_rank = rank;
       stages.answer_quality_ratio = sets[static_cast<size_t>(rank)].quality / sets.front().quality;
     }
+    // ---- the mask refined with the pose, and what it says of the caller's mask
+    watch.Restart();
+    RefineWithCorrectedMask(context, instance, &result);
+    stages.mask_refine_ms = watch.ElapsedMs();
     result.score = result.details.s;
     result.confidence = ConfidenceFromScore(options, result.score, result.ambiguous);
     result.success = true;

@@ -44,6 +44,10 @@ struct SolverOptions {
   /// other pixel is (bit for bit the solver before masks were evidence).
   MaskTrust mask_trust = MaskTrust::kDepth;
   RegionOptions region;         ///< the depth's check of the mask (kDepth)
+  /// The mask refined with the pose (kDepth): after the solve, ICP + MHPO from T_A on the
+  /// mask T_A implies (CorrectedMask), accepted when S with the caller's mask as evidence
+  /// is lower; repeated while it improves, at most this many times (0 = off).
+  int mask_refine_rounds = 1;
   MatchOptions match;           ///< τ_H = 64, N_P = 256
   PnpOptions pnp;
   int num_hypotheses = 18;      ///< N_H = K: hypotheses kept after observable selection
@@ -192,7 +196,8 @@ struct StageReport {
   double best_e_obs = 1.0;         ///< best E_obs among PnP poses
   double best_s_after_icp = 2.0;   ///< best S after ICP
   double prepare_ms = 0.0, features_ms = 0.0, match_ms = 0.0, pnp_ms = 0.0,
-         observable_ms = 0.0, icp_ms = 0.0, mhpo_ms = 0.0, post_refine_ms = 0.0, finalists_ms = 0.0, total_ms = 0.0;
+         observable_ms = 0.0, icp_ms = 0.0, mhpo_ms = 0.0, post_refine_ms = 0.0, finalists_ms = 0.0,
+         mask_refine_ms = 0.0, total_ms = 0.0;
   int distinct_finalists = 0;         ///< finalists left after merging poses equal modulo symmetry
   int appearance_compared = 0;        ///< finalists whose appearance was scored
   bool appearance_changed = false;    ///< appearance replaced the lowest-S pose as T_A
@@ -245,6 +250,13 @@ struct PoseResult {
   double runner_up_appearance_agreement = 0.0;
   bool runner_up_appearance_valid = false;
   double confidence = 0.0;   ///< in [0, 1], monotone decreasing in S_A
+  /// The mask T_A implies: its rendered silhouette less the pixels the depth shows hidden
+  /// (CorrectedMask), CV_8U 0/255 frame size; empty when the solve failed.
+  cv::Mat corrected_mask;
+  /// IoU of corrected_mask with the caller's mask: how well the segmenter's mask fits the
+  /// answer (1 = exactly; a quality signal for the segmenter).
+  double mask_iou = 0.0;
+  int mask_refined_rounds = 0;  ///< refinements on the corrected mask that lowered S_A
   PoseScore details;         ///< C, J, depth residual of T_A
   StageReport stages;
 };
