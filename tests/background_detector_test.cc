@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <thread>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -80,8 +81,12 @@ TEST_F(BackgroundDetectorTest, RunsTheFullSolverOnQueuedJobsInOrder) {
 TEST_F(BackgroundDetectorTest, AFullQueueRefusesAndStopEndsARunningSolve) {
   BackgroundDetector detector(SolverOptions(), 1, 0);
   Eigen::Isometry3d truth;
+  // The jobs are made first and submitted back to back: rendering a frame can take longer
+  // than a solve (under ThreadSanitizer), which would let the thread finish one in between.
+  std::vector<BackgroundDetector::Job> jobs;
+  for (int i = 0; i < 4; ++i) jobs.push_back(MakeJob(i, &truth));
   int accepted = 0;
-  for (int i = 0; i < 4; ++i) accepted += detector.Submit(MakeJob(i, &truth));
+  for (BackgroundDetector::Job& job : jobs) accepted += detector.Submit(std::move(job));
   // One may already be running, one waits: at most two of the four are taken.
   EXPECT_LE(accepted, 2);
   EXPECT_GE(detector.Rejected(), 2);
