@@ -121,7 +121,7 @@ TEST(ScoreRendering, DepthEvidenceCountsWhatTheMaskMissed) {
 // Masks as evidence: a mask pixel that the depth puts in front of the rendered surface is
 // an occluder the mask leaked onto: not rendered (a miss for every pose alike), and no
 // depth residual.
-TEST(ScoreRendering, DepthEvidenceTreatsAnOccluderInTheMaskAsNeutral) {
+TEST(ScoreRendering, DepthEvidenceCountsAnOccluderInTheMaskAsAMissWithoutResidual) {
   EvaluationGrid grid = MakeGrid();
   grid.depth(cv::Rect(2, 2, 1, 5)).setTo(0.8f);  // a 5 px occluder inside the mask
   RasterImage rendered;
