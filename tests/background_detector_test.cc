@@ -11,6 +11,7 @@
 #include "eval/metrics.h"
 #include "mesh/mesh.h"
 #include "synthetic_scene.h"
+#include "test_bank.h"
 
 namespace g6d {
 namespace {
@@ -22,7 +23,8 @@ class BackgroundDetectorTest : public ::testing::Test {
   static void SetUpTestSuite() {
     mesh_ = new Mesh(test::MakeTexturedBox(0.10, 0.07, 0.05, 21));
     ThreadPool pool(2);
-    bank_ = std::make_shared<const TemplateBank>(BuildTemplateBank(*mesh_, "box", TemplateBuildOptions(), &pool));
+    bank_ = std::make_shared<const TemplateBank>(
+        test::SharedTestBank("box21-default", *mesh_, "box", TemplateBuildOptions(), &pool));
   }
   static void TearDownTestSuite() {
     bank_.reset();

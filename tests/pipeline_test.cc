@@ -13,6 +13,7 @@
 #include "eval/metrics.h"
 #include "mesh/mesh.h"
 #include "synthetic_scene.h"
+#include "test_bank.h"
 
 namespace g6d {
 namespace {
@@ -25,7 +26,7 @@ class PipelineTest : public ::testing::Test {
     mesh_ = new Mesh(test::MakeTexturedBox(0.10, 0.07, 0.05, 21));
     TemplateBuildOptions options;
     ThreadPool pool(2);
-    bank_ = new TemplateBank(BuildTemplateBank(*mesh_, "box", options, &pool));
+    bank_ = new TemplateBank(test::SharedTestBank("box21-default", *mesh_, "box", options, &pool));
   }
   static void TearDownTestSuite() {
     delete bank_;

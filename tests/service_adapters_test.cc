@@ -20,6 +20,7 @@
 #include "eval/metrics.h"
 #include "service/service.h"
 #include "service_test_util.h"
+#include "test_bank.h"
 #include "wire/foreign_images.h"
 #include "wire/input_adapters.h"
 
@@ -85,7 +86,7 @@ bot_core::images_t BotCoreMessage(const test::SyntheticView& view) {
 
 class ServiceAdapters : public ::testing::Test {
  protected:
-  static void SetUpTestSuite() { scene_ = new test::ServiceScene(test::MakeServiceScene(1, 23)); }
+  static void SetUpTestSuite() { scene_ = new test::ServiceScene(test::MakeServiceScene(1, 23, test::SharedBankBuilder("service-scene"))); }
   static void TearDownTestSuite() { delete scene_; }
 
   // One service with `type` input on channels suffixed by the type's name.

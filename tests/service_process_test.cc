@@ -22,6 +22,7 @@
 #include "eval/metrics.h"
 #include "process_util.h"
 #include "service_test_util.h"
+#include "test_bank.h"
 #include "templates/cache.h"
 #include "test_util.h"
 
@@ -133,7 +134,7 @@ double ExpectCleanExitAfterSigterm(ServiceProcess* service, double max_seconds) 
 class ServiceProcessTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    scene_ = new test::ServiceScene(test::MakeServiceScene(3, 23));
+    scene_ = new test::ServiceScene(test::MakeServiceScene(3, 23, test::SharedBankBuilder("service-scene")));
     dir_ = new std::string(test::TempDir("service_process_" + std::to_string(getpid())));
     const std::string caches = *dir_ + "/caches";
     std::filesystem::create_directories(caches);

@@ -19,6 +19,7 @@
 #include "core/se3.h"
 #include "eval/metrics.h"
 #include "service_test_util.h"
+#include "test_bank.h"
 #include "wire/answer.h"
 #include "wire/bad_frames.h"
 #include "wire/names.h"
@@ -79,7 +80,7 @@ void ExpectConsistentExtraFields(const pose_estimate_t& estimate) {
 class ServiceTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    scene_ = new test::ServiceScene(test::MakeServiceScene(kNumViews, 11));
+    scene_ = new test::ServiceScene(test::MakeServiceScene(kNumViews, 11, test::SharedBankBuilder("service-scene")));
   }
   static void TearDownTestSuite() { delete scene_; }
 

@@ -10,6 +10,7 @@
 #include "eval/metrics.h"
 #include "mesh/mesh.h"
 #include "synthetic_scene.h"
+#include "test_bank.h"
 
 namespace g6d {
 namespace {
@@ -21,7 +22,7 @@ class TrackerTest : public ::testing::Test {
   static void SetUpTestSuite() {
     mesh_ = new Mesh(test::MakeTexturedBox(0.10, 0.07, 0.05, 21));
     ThreadPool pool(2);
-    bank_ = new TemplateBank(BuildTemplateBank(*mesh_, "box", TemplateBuildOptions(), &pool));
+    bank_ = new TemplateBank(test::SharedTestBank("box21-default", *mesh_, "box", TemplateBuildOptions(), &pool));
     renderer_ = new GlRenderer(*mesh_);
   }
   static void TearDownTestSuite() {

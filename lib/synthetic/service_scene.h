@@ -6,6 +6,8 @@
 /// load benchmark.
 
 #include <cstdint>
+#include <functional>
+#include <string>
 #include <random>
 #include <vector>
 
@@ -51,11 +53,22 @@ inline SolverOptions QuickSolverOptions() {
 }
 
 /// Builds the box, its bank and `num_views` views at random poses 0.5-0.8 m away.
-inline ServiceScene MakeServiceScene(int num_views, uint64_t seed) {
+/// Makes a template bank: BuildTemplateBank itself, or a test's shared copy of its answer.
+using BankBuilder = std::function<TemplateBank(const Mesh& mesh, const std::string& object_id,
+                                               const TemplateBuildOptions& options, Executor* executor)>;
+
+inline TemplateBank BuildBank(const Mesh& mesh, const std::string& object_id, const TemplateBuildOptions& options,
+                              Executor* executor) {
+  return BuildTemplateBank(mesh, object_id, options, executor);
+}
+
+/// The scene of `num_views` random views; `build_bank` makes its bank (tests pass a builder
+/// that shares one bank across their processes, test_bank.h).
+inline ServiceScene MakeServiceScene(int num_views, uint64_t seed, const BankBuilder& build_bank = BuildBank) {
   ServiceScene scene;
   scene.mesh = MakeTexturedBox(0.10, 0.07, 0.05, 21);
   ThreadPool pool(2);
-  scene.bank = BuildTemplateBank(scene.mesh, kBoxId, QuickTemplateOptions(), &pool);
+  scene.bank = build_bank(scene.mesh, kBoxId, QuickTemplateOptions(), &pool);
   GlRenderer renderer(scene.mesh);
   std::mt19937_64 rng(seed);
   for (int i = 0; i < num_views; ++i) {
