@@ -113,6 +113,36 @@ TEST_F(PipelineTest, AnErodedMaskIsCorrectedByTheDepthAndItsFitIsReported) {
   EXPECT_EQ(as_given.mask_refined_rounds, 0);
 }
 
+// A segmenter merged the object with its neighbour: a textured slab beside it, 8 cm nearer
+// the camera. The neighbour is another depth segment, which the answer does not own: the
+// pose is right, and its S is what the object alone gives (lower than with every mask
+// pixel counted).
+TEST_F(PipelineTest, AMaskMergedWithANeighbourInFrontIsSolvedByItsOwnSegment) {
+  GlRenderer renderer(*mesh_);
+  std::mt19937_64 rng(5);
+  ThreadPool pool(2);
+  const Eigen::Isometry3d truth = test::RandomPose(kCamera, 0.6, 0.7, &rng);
+  test::SyntheticView view = test::RenderSyntheticView(&renderer, *mesh_, kCamera, truth, {});
+  const cv::Rect box = cv::boundingRect(view.mask);
+  const cv::Rect slab = cv::Rect(box.x + box.width, box.y, box.width / 2, box.height) & cv::Rect(0, 0, 640, 480);
+  double nearest = 0.0;
+  cv::minMaxLoc(view.depth, &nearest, nullptr, nullptr, nullptr, view.mask);
+  view.depth(slab).setTo(nearest - 0.08);
+  cv::Mat texture(slab.size(), CV_8UC3);
+  cv::randu(texture, cv::Scalar::all(0), cv::Scalar::all(255));
+  texture.copyTo(view.rgb(slab));
+  cv::Mat merged = view.mask.clone();
+  merged(slab).setTo(255);
+  const PoseResult result = EstimatePose(MakeFrame(view), {"box", merged}, *bank_, SolverOptions(), &pool);
+  ASSERT_TRUE(result.success) << result.message;
+  EXPECT_LT(ComputeAdd(result.cam_from_object, truth, mesh_->vertices), 0.1 * bank_->diameter_m);
+  EXPECT_GT(result.details.foreign_pixels, 0);
+  SolverOptions every_pixel;
+  every_pixel.score.segment_own_fraction = 0.0;
+  const PoseScore counted = ScoreInstancePose(MakeFrame(view), {"box", merged}, *bank_, every_pixel, result.cam_from_object);
+  EXPECT_LT(result.score, counted.s);
+}
+
 TEST_F(PipelineTest, PostRefinementNeverRaisesTheScore) {
   GlRenderer renderer(*mesh_);
   std::mt19937_64 rng(11);

@@ -139,5 +139,39 @@ TEST(ScoreRendering, DepthEvidenceCountsAnOccluderInTheMaskAsAMissWithoutResidua
   EXPECT_LT(checked.s, as_given.s);
 }
 
+// Segment ownership: a mask merged with a neighbour (another depth segment) is explained by
+// the pose of the object alone; a pose that covers part of the neighbour must explain it all.
+TEST(ScoreRendering, DepthEvidenceLeavesOutTheSegmentsAPoseDoesNotCover) {
+  EvaluationGrid grid = MakeGrid();                  // the object: 4 x 5 at 1 m (segment 1)
+  grid.mask(cv::Rect(6, 2, 3, 5)).setTo(255);        // merged with a neighbour: 3 x 5 at 0.9 m
+  grid.depth(cv::Rect(6, 2, 3, 5)).setTo(0.9f);
+  grid.mask_pixels = 35;
+  grid.segment = cv::Mat::zeros(10, 10, CV_32S);
+  grid.segment(cv::Rect(2, 2, 4, 5)).setTo(1);
+  grid.segment(cv::Rect(6, 2, 3, 5)).setTo(2);
+  grid.segment_pixels = {0, 20, 15};
+  RasterImage rendered;
+  rendered.depth = cv::Mat::zeros(10, 10, CV_32F);
+  rendered.depth(cv::Rect(2, 2, 4, 5)).setTo(1.0f);  // the object's true pose
+  ScoreOptions evidence;
+  evidence.depth_evidence = true;
+  evidence.surface_tolerance_m = 0.005;
+  const PoseScore owned = ScoreRendering(grid, rendered, 1.0, evidence);
+  EXPECT_EQ(owned.foreign_pixels, 15);
+  EXPECT_DOUBLE_EQ(owned.iou, 1.0);
+  EXPECT_NEAR(owned.s, 0.0, 1e-9);
+  // Without ownership the neighbour is a miss of the true pose.
+  ScoreOptions every_pixel = evidence;
+  every_pixel.segment_own_fraction = 0.0;
+  const PoseScore merged = ScoreRendering(grid, rendered, 1.0, every_pixel);
+  EXPECT_EQ(merged.foreign_pixels, 0);
+  EXPECT_DOUBLE_EQ(merged.iou, 20.0 / 35.0);
+  // A pose reaching a third of the way into the neighbour owns it: its 10 px left count.
+  rendered.depth(cv::Rect(6, 2, 1, 5)).setTo(0.9f);
+  const PoseScore reaching = ScoreRendering(grid, rendered, 1.0, evidence);
+  EXPECT_EQ(reaching.foreign_pixels, 0);
+  EXPECT_DOUBLE_EQ(reaching.iou, 25.0 / 35.0);
+}
+
 }  // namespace
 }  // namespace g6d

@@ -138,6 +138,23 @@ struct HypothesisState {
   RasterImage raster;
 };
 
+// True when the rendered edge at (u, v), inside the mask, borders a mask pixel of another
+// depth segment (EvaluationGrid::segment): the mask goes on into another object there, so
+// the observed boundary that the contour should lie on is the depth edge, which the mask's
+// distance field does not know. Such contour points pull nowhere.
+bool CrossesIntoAnotherSegment(const EvaluationGrid& grid, const cv::Mat& rendered, int u, int v) {
+  if (grid.segment.empty()) return false;
+  const int own = grid.segment.at<int>(v, u);
+  const int du[4] = {-1, 1, 0, 0}, dv[4] = {0, 0, -1, 1};
+  for (int k = 0; k < 4; ++k) {
+    const int uu = u + du[k], vv = v + dv[k];
+    if (rendered.at<float>(vv, uu) > 0.0f || !grid.mask.at<uint8_t>(vv, uu)) continue;
+    const int other = grid.segment.at<int>(vv, uu);
+    if (other > 0 && other != own) return true;
+  }
+  return false;
+}
+
 // One round for one hypothesis: rasterize, collect residuals, LM, re-score.
 void RunRound(const MhpoOptions& options, const ScoreOptions& score_options, const MhpoTarget& target,
               const TargetInterpolators& interpolators, const Mesh& mesh, int round, HypothesisState* state) {
@@ -174,6 +191,7 @@ void RunRound(const MhpoOptions& options, const ScoreOptions& score_options, con
                         !(rendered.at<float>(v - 1, u) > 0.0f) || !(rendered.at<float>(v + 1, u) > 0.0f);
       if (!edge) continue;
       if (leaked_occluder || (!in_mask && (missed || IsOccluded(z, grid.depth.at<float>(v, u), score_options)))) continue;
+      if (in_mask && CrossesIntoAnotherSegment(grid, rendered, u, v)) continue;
       contour.push_back(point);
     }
   }

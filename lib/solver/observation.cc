@@ -54,9 +54,10 @@ double MedianMaskedDepth(const cv::Mat& mask, const cv::Mat& depth, int* valid_p
 }
 
 EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, const cv::Mat& depth,
-                                  const GridOptions& options, const cv::Mat& support) {
+                                  const GridOptions& options, const cv::Mat& support, const cv::Mat& segments) {
   G6D_CHECK(mask.type() == CV_8U && depth.type() == CV_32F);
   G6D_CHECK(support.empty() || (support.type() == CV_8U && support.size() == mask.size()));
+  G6D_CHECK(segments.empty() || (segments.type() == CV_32S && segments.size() == mask.size()));
   G6D_CHECK(mask.cols == camera.width && mask.rows == camera.height && depth.size() == mask.size());
   EvaluationGrid grid;
   const cv::Rect box = cv::boundingRect(mask);
@@ -98,6 +99,31 @@ EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, con
       const float z = d[su];
       gd[u] = (z > 0.0f && std::isfinite(z)) ? z : 0.0f;
       grid.mask_pixels += gm[u] ? 1 : 0;
+    }
+  }
+  if (!segments.empty()) {
+    // The segments inside the mask on the grid; kept only when there are two or more.
+    double max_label = 0.0;
+    cv::minMaxLoc(segments, nullptr, &max_label, nullptr, nullptr, mask);
+    grid.segment = cv::Mat::zeros(grid.mask.size(), CV_32S);
+    grid.segment_pixels.assign(static_cast<size_t>(max_label) + 1, 0);
+    int present = 0;
+    for (int v = 0; v < grid.camera.height; ++v) {
+      const int sv = std::min(y1 - 1, y0 + static_cast<int>((v + 0.5) / scale));
+      const int* labels = segments.ptr<int>(sv);
+      const uint8_t* gm = grid.mask.ptr<uint8_t>(v);
+      int* gl = grid.segment.ptr<int>(v);
+      for (int u = 0; u < grid.camera.width; ++u) {
+        if (!gm[u]) continue;
+        const int label = labels[std::min(x1 - 1, x0 + static_cast<int>((u + 0.5) / scale))];
+        gl[u] = label;
+        present += label > 0 && grid.segment_pixels[static_cast<size_t>(label)] == 0;
+        ++grid.segment_pixels[static_cast<size_t>(label)];
+      }
+    }
+    if (present < 2) {
+      grid.segment.release();
+      grid.segment_pixels.clear();
     }
   }
   return grid;

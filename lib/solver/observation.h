@@ -5,6 +5,7 @@
 /// z_M, the mean observed depth inside the mask (paper eq. 9).
 
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -20,6 +21,11 @@ struct EvaluationGrid {
   cv::Mat mask;   ///< CV_8U 0/255 observed mask on the grid
   cv::Mat depth;  ///< CV_32F metres on the grid, 0 = invalid
   cv::Mat support;  ///< CV_8U 0/255 on the grid: pixels on the support plane; empty = none known
+  /// CV_32S on the grid: the depth segment (segments.h) of each mask pixel, 0 = none; empty
+  /// when the mask is one segment (nothing for a pose to own or leave).
+  cv::Mat segment;
+  /// Mask pixels on the grid per segment label (index 0: mask pixels in no segment).
+  std::vector<int> segment_pixels;
   int mask_pixels = 0;
 };
 
@@ -35,9 +41,12 @@ struct GridOptions {
 
 /// Resamples `mask` (CV_8U, non-zero = object) and `depth` (CV_32F metres) of the full
 /// image onto the ROI around the mask box, clipped to the image.
-/// `support` (optional, CV_8U frame size, non-zero = on the support plane) is resampled too.
+/// `support` (optional, CV_8U frame size, non-zero = on the support plane) is resampled too,
+/// and so are `segments` (optional, CV_32S frame size, DepthSegmentation::labels) inside the
+/// mask when they hold two segments or more.
 EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, const cv::Mat& depth,
-                                  const GridOptions& options, const cv::Mat& support = cv::Mat());
+                                  const GridOptions& options, const cv::Mat& support = cv::Mat(),
+                                  const cv::Mat& segments = cv::Mat());
 
 /// z_M of eq. (9): mean observed depth over mask pixels with valid depth, metres;
 /// 0 when there is none. *valid_pixels (optional) receives their count.

@@ -12,6 +12,7 @@
 #include "core/error.h"
 #include "core/timer.h"
 #include "render/raster.h"
+#include "solver/mask_stage.h"
 #include "templates/crop.h"
 
 namespace g6d {
@@ -27,6 +28,7 @@ std::string SolverOptions::Check() const {
   if (bad.empty()) bad = mhpo.Check();
   if (bad.empty()) bad = appearance.Check();
   if (bad.empty()) bad = region.Check();
+  if (bad.empty()) bad = segments.Check();
   if (!bad.empty()) return bad;
   std::ostringstream out;
   if (num_hypotheses < 1) out << "SolverOptions.num_hypotheses must be >= 1 (got " << num_hypotheses << ")";
@@ -97,73 +99,6 @@ std::string ValidateInputs(const Frame& frame, const Instance& instance, const T
   else if (bank.templates.empty() || bank.online_mesh.faces.empty() || !(bank.diameter_m > 0.0))
     out << "the template bank for '" << bank.object_id << "' is empty";
   return out.str();
-}
-
-bool TouchesBorder(const cv::Rect& box, const cv::Size& size) {
-  return box.x == 0 || box.y == 0 || box.x + box.width == size.width || box.y + box.height == size.height;
-}
-
-// The observed data of one instance, shared read-only by every hypothesis.
-struct Observation {
-  cv::Mat mask;              // CV_8U 0/255, frame size
-  cv::Mat depth;             // CV_32F metres, NaN patched to 0
-  cv::Rect box;              // mask bounding box
-  double z_m = 0.0;          // robust z_M (median; eq. (9) uses the mean)
-  int valid_depth = 0;       // mask pixels with valid depth
-  bool truncated = false;    // the mask touches the image border
-  ObservedRegion region;     // what the depth changed in the caller's mask (MaskTrust::kDepth)
-  ScoreOptions score;        // options.score with this instance's depth evidence
-  std::unique_ptr<PointCloudIndex> observed;  // Y: observed points inside the mask
-  EvaluationGrid selection_grid, refine_grid;
-};
-
-// Fills *observation; returns an empty string, or what is wrong with the input.
-std::string PrepareObservation(const Frame& frame, const Instance& instance, const SolverOptions& options,
-                               double diameter_m, Observation* observation) {
-  observation->mask = instance.mask > 0;
-  observation->box = cv::boundingRect(observation->mask);
-  if (observation->box.area() == 0) return "the instance mask is empty";
-  observation->truncated = TouchesBorder(observation->box, observation->mask.size());
-  if (options.reject_border_masks && observation->truncated) {
-    return "the instance mask touches the image border (object truncated; solved unless reject_border_masks)";
-  }
-  observation->depth = frame.depth.clone();
-  cv::Mat& depth = observation->depth;
-  cv::patchNaNs(depth, 0.0);
-  observation->score = options.score;
-  if (options.mask_trust == MaskTrust::kDepth) {
-    // The mask as evidence: its leaks removed, and the tolerance of "on the rendered
-    // surface" for the pixels it missed (region.h).
-    observation->region = ComputeObservedRegion(frame.camera, observation->mask, depth, diameter_m, options.region);
-    observation->mask = observation->region.mask;
-    observation->box = cv::boundingRect(observation->mask);
-    if (observation->box.area() == 0) return "the instance mask is empty once its leaks are removed";
-    observation->score.depth_evidence = true;
-    observation->score.surface_tolerance_m = observation->region.surface_tolerance_m;
-  }
-  const cv::Mat& mask = observation->mask;
-  const cv::Rect& box = observation->box;
-  int& valid_depth = observation->valid_depth;
-  observation->z_m = MedianMaskedDepth(mask, depth, &valid_depth);  // eq. (9), robust
-  if (valid_depth < options.min_valid_depth_pixels) {
-    return "the mask has " + std::to_string(valid_depth) + " pixels with valid depth (need " +
-           std::to_string(options.min_valid_depth_pixels) + ")";
-  }
-  // Observed cloud Y, deterministic image-space subsampling.
-  const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(valid_depth) / options.max_observed_points))));
-  std::vector<Eigen::Vector3d> observed;
-  for (int v = box.y + stride / 2; v < box.y + box.height; v += stride) {
-    for (int u = box.x + stride / 2; u < box.x + box.width; u += stride) {
-      const float z = depth.at<float>(v, u);
-      if (!mask.at<uint8_t>(v, u) || !(z > 0.0f)) continue;
-      observed.push_back(frame.camera.Backproject(PixelCentre(u, v), z));
-    }
-  }
-  observation->observed = std::make_unique<PointCloudIndex>(std::move(observed));
-  const cv::Mat& support = observation->region.support;
-  observation->selection_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.selection_grid, support);
-  observation->refine_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.refine_grid, support);
-  return "";
 }
 
 // Visible model points of a rendering on `grid` at `cam_from_object`, in the object frame:
@@ -592,46 +527,203 @@ std::vector<PoseScore> RefineHypothesesByIcp(const SolveContext& c, std::vector<
   return scores;
 }
 
-// The area the corrected mask is rendered in: the caller's mask box grown by its longer
-// side on each side (an eroded or cut mask can be much smaller than the object).
-cv::Rect CorrectionArea(const cv::Rect& box) {
-  const int grow = std::max(box.width, box.height);
-  return cv::Rect(box.x - grow, box.y - grow, box.width + 2 * grow, box.height + 2 * grow);
+// The mask stage's findings in the report: truncation and what the depth changed.
+void ReportObservation(const Observation& observation, PoseResult* result) {
+  StageReport& stages = result->stages;
+  result->truncated = observation.truncated;
+  stages.mask_given_pixels = observation.region.given_pixels;
+  stages.mask_support_leak = observation.region.support_leak;
+  stages.mask_far_leak = observation.region.far_leak;
+  stages.support_plane = observation.region.has_plane;
+  stages.surface_tolerance_m = observation.region.surface_tolerance_m;
 }
 
-// After the solve (MaskTrust::kDepth): ICP + MHPO from T_A on the mask T_A implies, kept
-// while S against the caller's mask (as evidence) falls; then the corrected mask of the final
-// T_A and its IoU with the caller's mask go into *result.
-void RefineWithCorrectedMask(const SolveContext& c, const Instance& instance, PoseResult* result) {
+// The context of one solve: the score options per mesh (back faces culled only on closed
+// meshes) and the selection mesh (the coarse one when the bank has it).
+SolveContext MakeSolveContext(const Frame& frame, const TemplateBank& bank, const SolverOptions& options,
+                              Executor* executor, const Observation& observation, const PoseComparer& comparer,
+                              SolveClock* clock, StageReport* stages) {
+  SolveContext context{frame, bank, options, executor, observation, comparer, observation.score, observation.score,
+                       &bank.online_mesh, clock, stages};
+  context.online_score.cull_backfaces = options.cull_backfaces && bank.online_mesh_closed;
+  const bool coarse = options.coarse_selection_mesh && !bank.selection_mesh.faces.empty();
+  context.selection_mesh = coarse ? &bank.selection_mesh : &bank.online_mesh;
+  context.selection_score.cull_backfaces =
+      options.cull_backfaces && (coarse ? bank.selection_mesh_closed : bank.online_mesh_closed);
+  return context;
+}
+
+// What the search found: the correspondence sets (best Q first) and the PnP hypotheses.
+struct Search {
+  std::vector<CorrespondenceSet> sets;
+  std::vector<Hypothesis> hypotheses;
+};
+
+// Stages 1 and 2: ORB on the normalized mask crop, template matching (correspondence sets
+// ranked by Q_j), the template seed pose, and MSAC-PnP per set with equal poses merged.
+// Returns an empty string, or why no hypothesis came out (the solve's kNoHypothesis).
+std::string RunSearchStages(const SolveContext& c, Search* search) {
+  StageReport& stages = *c.stages;
+  const Observation& observation = c.observation;
+  Stopwatch watch;
+  const NormalizedCrop crop = NormalizeCrop(c.frame.rgb, observation.mask, c.bank.options.crop);
+  const std::vector<Feature> query = DetectOrb(crop, c.options.query_orb);
+  stages.query_features = static_cast<int>(query.size());
+  stages.features_ms = watch.ElapsedMs();
+  watch.Restart();
+  MatchReport match_report;
+  MatchTemplates(c.options.match, query, c.bank, c.executor, &search->sets, &match_report);
+  stages.match_ms = watch.ElapsedMs();
+  stages.correspondence_sets = static_cast<int>(search->sets.size());
+  stages.best_quality = match_report.best_quality;
+  if (!match_report.success) return "matching: " + match_report.message;
+  // Template seed: the best template's rotation, translated onto the mask centre at z_M.
+  const Template& best = c.bank.templates[static_cast<size_t>(search->sets.front().template_index)];
+  const cv::Rect& box = observation.box;
+  const Eigen::Vector2d mask_centre(box.x + 0.5 * box.width, box.y + 0.5 * box.height);
+  stages.seed_pose.linear() = best.cam_from_object.linear();
+  stages.seed_pose.translation() =
+      c.frame.camera.Backproject(mask_centre, observation.z_m) - best.cam_from_object.linear() * c.bank.bounding_box.center();
+
+  watch.Restart();
+  search->hypotheses = RunPnpStage(c, search->sets, query);
+  stages.pnp_ms = watch.ElapsedMs();
+  if (search->hypotheses.empty()) {
+    return "MSAC-PnP found no valid pose in " + std::to_string(stages.sets_tried) + " correspondence sets";
+  }
+  stages.pnp_pose = search->hypotheses.front().cam_from_object;  // from the best-ranked template with a valid pose
+  return "";
+}
+
+// Stage 3 with its report: the K hypotheses kept by E_obs.
+std::vector<Hypothesis> RunObservableStage(const SolveContext& c, const std::vector<Hypothesis>& hypotheses) {
+  const Stopwatch watch;
+  std::vector<Hypothesis> kept = SelectObservable(c, hypotheses);
+  c.stages->kept_hypotheses = static_cast<int>(kept.size());
+  c.stages->observable_pose = kept.front().cam_from_object;
+  for (const Hypothesis& h : kept) c.stages->kept_poses.push_back(h.cam_from_object);
+  c.stages->observable_ms = watch.ElapsedMs();
+  return kept;
+}
+
+// The kept hypotheses after ICP, their scores and the best of them.
+struct IcpOutcome {
+  std::vector<Eigen::Isometry3d> refined;
+  std::vector<PoseScore> scores;
+  int best = 0;
+};
+
+// Stage 4 with its report: trimmed ICP on every kept hypothesis (in place), then S.
+IcpOutcome RunIcpStage(const SolveContext& c, std::vector<Hypothesis>* kept) {
+  const Stopwatch watch;
+  IcpOutcome outcome;
+  outcome.scores = RefineHypothesesByIcp(c, kept);
+  for (const Hypothesis& h : *kept) outcome.refined.push_back(h.cam_from_object);
+  for (size_t k = 0; k < kept->size(); ++k) {
+    if (outcome.scores[k].s < outcome.scores[static_cast<size_t>(outcome.best)].s) outcome.best = static_cast<int>(k);
+  }
+  c.stages->best_s_after_icp = outcome.scores[static_cast<size_t>(outcome.best)].s;
+  c.stages->icp_pose = outcome.refined[static_cast<size_t>(outcome.best)];
+  c.stages->icp_ms = watch.ElapsedMs();
+  return outcome;
+}
+
+// Stage 5: MHPO from the ICP poses, T_A and S_A the best state over all hypotheses and
+// rounds (the best ICP pose when MHPO does not improve on it). Returns every hypothesis'
+// best state, the finalists for the runner-up and appearance.
+std::vector<Finalist> RunMhpoStage(const SolveContext& c, const MhpoTarget& target, const std::vector<Hypothesis>& kept,
+                                   const IcpOutcome& icp, PoseResult* result) {
+  const SolverOptions& options = c.options;
+  StageReport& stages = *c.stages;
+  const Stopwatch watch;
+  result->cam_from_object = stages.icp_pose;
+  result->details = icp.scores[static_cast<size_t>(icp.best)];
+  stages.answer_hypothesis = icp.best;
+  result->termination = Termination::kConverged;
+  if (options.run_mhpo && !c.clock->OutOfTime()) {
+    Eigen::Isometry3d best;
+    RefineByMhpo(options.mhpo, c.online_score, target, c.bank.online_mesh, icp.refined, c.executor, &best, &stages.mhpo,
+                 &c.clock->deadline(), &icp.scores);
+    if (stages.mhpo.cut_short) c.clock->MarkSkipped();
+    if (stages.mhpo.success && stages.mhpo.best_score.s <= result->details.s) {
+      result->cam_from_object = best;
+      result->details = stages.mhpo.best_score;
+      stages.answer_hypothesis = stages.mhpo.best_hypothesis;
+    }
+    if (stages.mhpo.early_stopped) result->termination = Termination::kEarlyStopped;
+  }
+  stages.mhpo_ms = watch.ElapsedMs();
+  std::vector<Finalist> finalists;
+  for (size_t k = 0; k < kept.size(); ++k) {
+    const bool mhpo_ran = options.run_mhpo && stages.mhpo.success && k < stages.mhpo.hypotheses.size();
+    finalists.push_back(mhpo_ran ? Finalist{stages.mhpo.hypotheses[k].best_cam_from_object, stages.mhpo.hypotheses[k].best_score, static_cast<int>(k)}
+                                 : Finalist{icp.refined[k], icp.scores[k], static_cast<int>(k)});
+  }
+  return finalists;
+}
+
+// Stage 6 (options.post_refine): a poor T_A (S above the trigger) is tried again from its
+// flips and re-centred copies (PostRefineHypotheses), ICP + MHPO, accepted by a margin.
+void RunPostRefineStage(const SolveContext& c, const MhpoTarget& target, PoseResult* result) {
   const SolverOptions& options = c.options;
   const Observation& observation = c.observation;
-  const cv::Mat given = instance.mask > 0;
-  const cv::Rect area = CorrectionArea(cv::boundingRect(given));
-  auto corrected_at = [&](const Eigen::Isometry3d& pose) {
-    return CorrectedMask(c.frame.camera, c.bank.online_mesh, pose, observation.depth,
-                         c.online_score.occlusion_margin_m, c.online_score.cull_backfaces, area);
-  };
-  cv::Mat corrected = corrected_at(result->cam_from_object);
-  if (options.mask_trust == MaskTrust::kDepth) {
-    for (int round = 0; round < options.mask_refine_rounds && !c.clock->OutOfTime(); ++round) {
-      if (cv::countNonZero(corrected) < options.min_valid_depth_pixels) break;
-      SolverOptions track_options = options;
-      track_options.mask_refine_rounds = 0;
-      const PoseResult again = TrackPose(c.frame, Instance{instance.object_id, corrected}, c.bank, track_options,
-                                         TrackSolveOptions(), {result->cam_from_object}, c.executor);
-      if (!again.success) break;
-      RasterImage scratch;
-      const PoseScore score = ScorePose(observation.refine_grid, c.bank.online_mesh, again.cam_from_object,
-                                        observation.z_m, c.online_score, &scratch);
-      if (!(score.s < result->details.s)) break;
-      result->cam_from_object = again.cam_from_object;
-      result->details = score;
-      ++result->mask_refined_rounds;
-      corrected = corrected_at(result->cam_from_object);
-    }
+  if (!options.post_refine || !(result->details.s > options.post_refine_trigger_s) || c.clock->OutOfTime()) return;
+  StageReport& stages = *c.stages;
+  const Stopwatch watch;
+  stages.post_refine_ran = true;
+  std::vector<Eigen::Isometry3d> extra =
+      PostRefineHypotheses(result->cam_from_object, c.bank, c.frame.camera, observation.box, observation.z_m);
+  c.executor->ParallelFor(static_cast<int>(extra.size()), [&](int k) {
+    RasterImage scratch;
+    RunIcpFrom(options, c.bank.online_mesh, observation.refine_grid, c.online_score, *observation.observed,
+               c.bank.diameter_m, options.max_source_points, options.icp.max_iterations, &scratch,
+               &extra[static_cast<size_t>(k)]);
+  });
+  Eigen::Isometry3d best;
+  MhpoReport report;
+  RefineByMhpo(options.mhpo, c.online_score, target, c.bank.online_mesh, extra, c.executor, &best, &report);
+  if (report.success && report.best_score.s < result->details.s - options.post_refine_margin) {
+    result->cam_from_object = best;
+    result->details = report.best_score;
+    stages.post_refine_accepted = true;
+    stages.answer_hypothesis = -1;
   }
-  result->mask_iou = MaskIntersectionOverUnion(corrected, given);
-  result->corrected_mask = corrected;
+  stages.post_refine_ms = watch.ElapsedMs();
+}
+
+// The finalists (T_A last, as stage 6 may have moved it): symmetric duplicates merged,
+// appearance tie-break, runner-up and ambiguity; then where the answer came from.
+void RunFinalistStage(const SolveContext& c, std::vector<Finalist> finalists, const std::vector<Hypothesis>& kept,
+                      const std::vector<CorrespondenceSet>& sets, PoseResult* result) {
+  StageReport& stages = *c.stages;
+  const Stopwatch watch;
+  finalists.push_back(Finalist{result->cam_from_object, result->details, stages.answer_hypothesis});
+  if (!c.clock->OutOfTime()) {
+    ResolveFinalists(c.options, c.bank, c.frame, c.observation.mask, c.comparer.symmetries(), c.comparer.points(),
+                     std::move(finalists), result);
+  }
+  stages.finalists_ms = watch.ElapsedMs();
+  if (stages.answer_hypothesis >= 0) {
+    const int rank = kept[static_cast<size_t>(stages.answer_hypothesis)].set_rank;
+    stages.answer_set_rank = rank;
+    stages.answer_quality_ratio = sets[static_cast<size_t>(rank)].quality / sets.front().quality;
+  }
+}
+
+// S_A, the confidence and the message of a successful solve (cut short: says so).
+void FinishAnswer(const SolverOptions& options, const SolveClock& clock, PoseResult* result) {
+  result->score = result->details.s;
+  result->confidence = ConfidenceFromScore(options, result->score, result->ambiguous);
+  result->success = true;
+  result->message = "ok";
+  if (!clock.Skipped()) return;
+  result->cut_short = true;
+  result->termination = Termination::kCutShort;
+  std::ostringstream message;
+  message << "ok, cut short after " << static_cast<int>(clock.deadline().ElapsedMs()) << " ms ("
+          << (clock.deadline().Stopped() ? "stop requested" : "budget " + std::to_string(static_cast<int>(options.budget_ms)) + " ms")
+          << "): the best pose so far";
+  result->message = message.str();
 }
 
 }  // namespace
@@ -662,164 +754,29 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
   try {
     const std::string bad = ValidateInputs(frame, instance, bank, options);
     if (!bad.empty()) return fail(Termination::kBadInput, bad);
-
-    // ---- prepare the observation
     Stopwatch watch;
-    Observation observation;
+    Observation observation;  // the mask stage (mask_stage.h): the mask as evidence
     const std::string bad_observation = PrepareObservation(frame, instance, options, bank.diameter_m, &observation);
     if (!bad_observation.empty()) return fail(Termination::kBadInput, bad_observation);
-    result.truncated = observation.truncated;
-    stages.mask_given_pixels = observation.region.given_pixels;
-    stages.mask_support_leak = observation.region.support_leak;
-    stages.mask_far_leak = observation.region.far_leak;
-    stages.support_plane = observation.region.has_plane;
-    stages.surface_tolerance_m = observation.region.surface_tolerance_m;
+    ReportObservation(observation, &result);
     const PoseComparer comparer(AnswerSymmetries(bank), DistancePoints(bank.online_mesh, 64));
-    SolveContext context{frame, bank, options, executor, observation, comparer, observation.score, observation.score,
-                         &bank.online_mesh, &clock, &stages};
-    context.online_score.cull_backfaces = options.cull_backfaces && bank.online_mesh_closed;
-    const bool coarse = options.coarse_selection_mesh && !bank.selection_mesh.faces.empty();
-    context.selection_mesh = coarse ? &bank.selection_mesh : &bank.online_mesh;
-    context.selection_score.cull_backfaces =
-        options.cull_backfaces && (coarse ? bank.selection_mesh_closed : bank.online_mesh_closed);
+    const SolveContext context = MakeSolveContext(frame, bank, options, executor, observation, comparer, &clock, &stages);
     stages.prepare_ms = watch.ElapsedMs();
 
-    // ---- stage 1: features and template matching
-    watch.Restart();
-    const NormalizedCrop crop = NormalizeCrop(frame.rgb, observation.mask, bank.options.crop);
-    const std::vector<Feature> query = DetectOrb(crop, options.query_orb);
-    stages.query_features = static_cast<int>(query.size());
-    stages.features_ms = watch.ElapsedMs();
-    watch.Restart();
-    std::vector<CorrespondenceSet> sets;
-    MatchReport match_report;
-    MatchTemplates(options.match, query, bank, executor, &sets, &match_report);
-    stages.match_ms = watch.ElapsedMs();
-    stages.correspondence_sets = static_cast<int>(sets.size());
-    stages.best_quality = match_report.best_quality;
-    if (!match_report.success) return fail(Termination::kNoHypothesis, "matching: " + match_report.message);
-    {
-      // Template seed: the best template's rotation, translated onto the mask centre at z_M.
-      const Template& best = bank.templates[static_cast<size_t>(sets.front().template_index)];
-      const cv::Rect& box = observation.box;
-      const Eigen::Vector2d mask_centre(box.x + 0.5 * box.width, box.y + 0.5 * box.height);
-      stages.seed_pose.linear() = best.cam_from_object.linear();
-      stages.seed_pose.translation() =
-          frame.camera.Backproject(mask_centre, observation.z_m) - best.cam_from_object.linear() * bank.bounding_box.center();
-    }
-
-    // ---- stage 2: MSAC-PnP per correspondence set, equal poses merged
-    watch.Restart();
-    const std::vector<Hypothesis> hypotheses = RunPnpStage(context, sets, query);
-    stages.pnp_ms = watch.ElapsedMs();
-    if (hypotheses.empty()) {
-      return fail(Termination::kNoHypothesis, "MSAC-PnP found no valid pose in " + std::to_string(stages.sets_tried) + " correspondence sets");
-    }
-    stages.pnp_pose = hypotheses.front().cam_from_object;  // from the best-ranked template with a valid pose
-
-    // ---- stage 3: observable selection (eq. 7)
-    watch.Restart();
-    std::vector<Hypothesis> kept = SelectObservable(context, hypotheses);
-    stages.kept_hypotheses = static_cast<int>(kept.size());
-    stages.observable_pose = kept.front().cam_from_object;
-    for (const Hypothesis& h : kept) stages.kept_poses.push_back(h.cam_from_object);
-    stages.observable_ms = watch.ElapsedMs();
-
-    // ---- stage 4: trimmed ICP on depth
-    watch.Restart();
-    const std::vector<PoseScore> icp_scores = RefineHypothesesByIcp(context, &kept);
-    std::vector<Eigen::Isometry3d> refined;
-    for (const Hypothesis& h : kept) refined.push_back(h.cam_from_object);
-    int best_after_icp = 0;
-    for (size_t k = 0; k < kept.size(); ++k) {
-      if (icp_scores[k].s < icp_scores[static_cast<size_t>(best_after_icp)].s) best_after_icp = static_cast<int>(k);
-    }
-    stages.best_s_after_icp = icp_scores[static_cast<size_t>(best_after_icp)].s;
-    stages.icp_pose = refined[static_cast<size_t>(best_after_icp)];
-    stages.icp_ms = watch.ElapsedMs();
-
-    // ---- stage 5: MHPO, best state over all hypotheses and rounds (T_A, S_A)
-    watch.Restart();
-    result.cam_from_object = stages.icp_pose;
-    result.details = icp_scores[static_cast<size_t>(best_after_icp)];
-    stages.answer_hypothesis = best_after_icp;
-    result.termination = Termination::kConverged;
+    Search search;  // stages 1 and 2: features, template matching, MSAC-PnP
+    const std::string no_hypothesis = RunSearchStages(context, &search);
+    if (!no_hypothesis.empty()) return fail(Termination::kNoHypothesis, no_hypothesis);
+    std::vector<Hypothesis> kept = RunObservableStage(context, search.hypotheses);  // stage 3 (eq. 7)
+    const IcpOutcome icp = RunIcpStage(context, &kept);                              // stage 4
     const MhpoTarget target = MakeMhpoTarget(observation.refine_grid, observation.z_m);
-    if (options.run_mhpo && !clock.OutOfTime()) {
-      Eigen::Isometry3d best;
-      RefineByMhpo(options.mhpo, context.online_score, target, bank.online_mesh, refined, executor, &best, &stages.mhpo,
-                   &clock.deadline(), &icp_scores);
-      if (stages.mhpo.cut_short) clock.MarkSkipped();
-      if (stages.mhpo.success && stages.mhpo.best_score.s <= result.details.s) {
-        result.cam_from_object = best;
-        result.details = stages.mhpo.best_score;
-        stages.answer_hypothesis = stages.mhpo.best_hypothesis;
-      }
-      if (stages.mhpo.early_stopped) result.termination = Termination::kEarlyStopped;
-    }
-    stages.mhpo_ms = watch.ElapsedMs();
-
-    // Finalists: every hypothesis' best state, for the runner-up and appearance.
-    std::vector<Finalist> finalists;
-    for (size_t k = 0; k < kept.size(); ++k) {
-      const bool mhpo_ran = options.run_mhpo && stages.mhpo.success && k < stages.mhpo.hypotheses.size();
-      finalists.push_back(mhpo_ran ? Finalist{stages.mhpo.hypotheses[k].best_cam_from_object, stages.mhpo.hypotheses[k].best_score, static_cast<int>(k)}
-                                   : Finalist{refined[k], icp_scores[k], static_cast<int>(k)});
-    }
-
-    // ---- stage 6 (optional): post-refinement of a poor T_A
-    if (options.post_refine && result.details.s > options.post_refine_trigger_s && !clock.OutOfTime()) {
-      watch.Restart();
-      stages.post_refine_ran = true;
-      std::vector<Eigen::Isometry3d> extra =
-          PostRefineHypotheses(result.cam_from_object, bank, frame.camera, observation.box, observation.z_m);
-      executor->ParallelFor(static_cast<int>(extra.size()), [&](int k) {
-        RasterImage scratch;
-        RunIcpFrom(options, bank.online_mesh, observation.refine_grid, context.online_score, *observation.observed,
-                   bank.diameter_m, options.max_source_points, options.icp.max_iterations, &scratch,
-                   &extra[static_cast<size_t>(k)]);
-      });
-      Eigen::Isometry3d best;
-      MhpoReport report;
-      RefineByMhpo(options.mhpo, context.online_score, target, bank.online_mesh, extra, executor, &best, &report);
-      if (report.success && report.best_score.s < result.details.s - options.post_refine_margin) {
-        result.cam_from_object = best;
-        result.details = report.best_score;
-        stages.post_refine_accepted = true;
-        stages.answer_hypothesis = -1;
-      }
-      stages.post_refine_ms = watch.ElapsedMs();
-    }
-    // ---- finalists: merge symmetric duplicates, appearance tie-break, ambiguity
-    watch.Restart();
-    finalists.push_back(Finalist{result.cam_from_object, result.details, stages.answer_hypothesis});  // T_A (stage 6 may have moved it)
-    if (!clock.OutOfTime()) {
-      ResolveFinalists(options, bank, frame, observation.mask, comparer.symmetries(), comparer.points(),
-                       std::move(finalists), &result);
-    }
-    stages.finalists_ms = watch.ElapsedMs();
-    if (stages.answer_hypothesis >= 0) {
-      const int rank = kept[static_cast<size_t>(stages.answer_hypothesis)].set_rank;
-      stages.answer_set_rank = rank;
-      stages.answer_quality_ratio = sets[static_cast<size_t>(rank)].quality / sets.front().quality;
-    }
-    // ---- the mask refined with the pose, and what it says of the caller's mask
-    watch.Restart();
-    RefineWithCorrectedMask(context, instance, &result);
+    std::vector<Finalist> finalists = RunMhpoStage(context, target, kept, icp, &result);  // stage 5: T_A, S_A
+    RunPostRefineStage(context, target, &result);                                    // stage 6 (optional)
+    RunFinalistStage(context, std::move(finalists), kept, search.sets, &result);     // runner-up, appearance
+    watch.Restart();                                                                 // the mask refined with the pose
+    RefineWithCorrectedMask(frame, instance, bank, options, observation, context.online_score,
+                            [&clock] { return clock.OutOfTime(); }, executor, &result);
     stages.mask_refine_ms = watch.ElapsedMs();
-    result.score = result.details.s;
-    result.confidence = ConfidenceFromScore(options, result.score, result.ambiguous);
-    result.success = true;
-    result.message = "ok";
-    if (clock.Skipped()) {
-      result.cut_short = true;
-      result.termination = Termination::kCutShort;
-      std::ostringstream message;
-      message << "ok, cut short after " << static_cast<int>(clock.deadline().ElapsedMs()) << " ms ("
-              << (clock.deadline().Stopped() ? "stop requested" : "budget " + std::to_string(static_cast<int>(options.budget_ms)) + " ms")
-              << "): the best pose so far";
-      result.message = message.str();
-    }
+    FinishAnswer(options, clock, &result);
     stages.total_ms = total.ElapsedMs();
     return result;
   } catch (const std::exception& e) {

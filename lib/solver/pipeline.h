@@ -20,6 +20,7 @@
 #include "solver/pnp.h"
 #include "solver/region.h"
 #include "solver/score.h"
+#include "solver/segments.h"
 #include "templates/features.h"
 #include "templates/template_bank.h"
 
@@ -44,6 +45,9 @@ struct SolverOptions {
   /// other pixel is (bit for bit the solver before masks were evidence).
   MaskTrust mask_trust = MaskTrust::kDepth;
   RegionOptions region;         ///< the depth's check of the mask (kDepth)
+  /// The mask's depth segments (kDepth): each pose owns the segments it covers and the rest
+  /// are another object's (ScoreOptions::segment_own_fraction; a merged or boxed mask).
+  SegmentOptions segments;
   /// The mask refined with the pose (kDepth): after the solve, ICP + MHPO from T_A on the
   /// mask T_A implies (CorrectedMask), accepted when S with the caller's mask as evidence
   /// is lower; repeated while it improves, at most this many times (0 = off).

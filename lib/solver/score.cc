@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <sstream>
+#include <vector>
 
 #include "core/error.h"
 
@@ -13,6 +14,7 @@ std::string ScoreOptions::Check() const {
   else if (!(lambda_s >= 0.0 && std::isfinite(lambda_s))) out << "ScoreOptions.lambda_s must be finite and >= 0 (got " << lambda_s << ")";
   else if (!std::isfinite(occlusion_margin_m)) out << "ScoreOptions.occlusion_margin_m must be finite (got " << occlusion_margin_m << ")";
   else if (!(surface_tolerance_m >= 0.0 && std::isfinite(surface_tolerance_m))) out << "ScoreOptions.surface_tolerance_m must be finite and >= 0 (got " << surface_tolerance_m << ")";
+  else if (!(segment_own_fraction >= 0.0 && segment_own_fraction <= 1.0)) out << "ScoreOptions.segment_own_fraction must be in [0, 1] (got " << segment_own_fraction << ")";
   return out.str();
 }
 
@@ -23,14 +25,38 @@ PoseScore ScoreRendering(const EvaluationGrid& grid, const RasterImage& rendered
   int observed = 0, intersection = 0, union_count = 0, overlap = 0;
   double residual_sum = 0.0;
   const bool has_support = options.depth_evidence && !grid.support.empty();
+  // Segment ownership: first which segments the pose covers (after occlusion), then the
+  // mask pixels of the others are left out of C, J and the residual.
+  const bool by_segment = options.depth_evidence && options.segment_own_fraction > 0.0 && !grid.segment.empty();
+  std::vector<uint8_t> owned;
+  if (by_segment) {
+    std::vector<int> covered(grid.segment_pixels.size(), 0);
+    for (int v = 0; v < grid.mask.rows; ++v) {
+      const int* label = grid.segment.ptr<int>(v);
+      const float* d = grid.depth.ptr<float>(v);
+      const float* r = rendered.depth.ptr<float>(v);
+      for (int u = 0; u < grid.mask.cols; ++u) {
+        if (label[u] > 0 && r[u] > 0.0f && !IsOccluded(r[u], d[u], options)) ++covered[static_cast<size_t>(label[u])];
+      }
+    }
+    owned.assign(covered.size(), 1);
+    for (size_t k = 1; k < covered.size(); ++k) {
+      owned[k] = covered[k] >= options.segment_own_fraction * grid.segment_pixels[k];
+    }
+  }
   for (int v = 0; v < grid.mask.rows; ++v) {
     const uint8_t* m = grid.mask.ptr<uint8_t>(v);
     const uint8_t* support = has_support ? grid.support.ptr<uint8_t>(v) : nullptr;
     const float* d = grid.depth.ptr<float>(v);
     const float* r = rendered.depth.ptr<float>(v);
+    const int* label = by_segment ? grid.segment.ptr<int>(v) : nullptr;
     for (int u = 0; u < grid.mask.cols; ++u) {
       bool in_observed = m[u] != 0;
       bool in_rendered = r[u] > 0.0f;
+      if (in_observed && label != nullptr && !owned[static_cast<size_t>(label[u])]) {
+        ++score.foreign_pixels;  // another object's segment
+        in_observed = false;
+      }
       if (in_rendered && (!in_observed || options.depth_evidence) && IsOccluded(r[u], d[u], options)) {
         // Hidden by an occluder that no mask covers: neither for nor against. Inside the
         // mask (depth evidence) the mask leaked onto an occluder, or the pose lies behind

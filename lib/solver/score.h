@@ -35,6 +35,12 @@ struct ScoreOptions {
   /// paper). The pipeline sets both per instance (ObservedRegion::surface_tolerance_m).
   bool depth_evidence = false;
   double surface_tolerance_m = 0.0;
+  /// Segment ownership (depth evidence, a mask of two depth segments or more: a merged or
+  /// boxed mask, segments.h): a pose owns the segments it covers at least this fraction of;
+  /// the mask pixels of the segments it does not own are another object's and count neither
+  /// for nor against it. A pose that covers part of a segment must explain all of it.
+  /// 0 = every mask pixel counts (as without segments).
+  double segment_own_fraction = 0.25;
 
   std::string Check() const;
 };
@@ -50,6 +56,7 @@ struct PoseScore {
   int overlap_pixels = 0;       ///< Σ w: overlap with valid observed depth
   int occluded_pixels = 0;      ///< rendered pixels explained by an unmasked occluder (not counted)
   int recovered_pixels = 0;     ///< rendered pixels outside the mask that the depth puts on the object
+  int foreign_pixels = 0;       ///< mask pixels of depth segments the pose does not own (not counted)
 };
 
 /// True when a rendered pixel (depth `rendered_m` > 0) outside the observed mask is hidden

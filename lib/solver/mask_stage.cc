@@ -1,0 +1,116 @@
+#include "solver/mask_stage.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
+
+#include "render/raster.h"
+#include "solver/segments.h"
+
+namespace g6d {
+
+namespace {
+
+bool TouchesBorder(const cv::Rect& box, const cv::Size& size) {
+  return box.x == 0 || box.y == 0 || box.x + box.width == size.width || box.y + box.height == size.height;
+}
+
+
+// The area the corrected mask is rendered in: the caller's mask box grown by its longer
+// side on each side (an eroded or cut mask can be much smaller than the object).
+cv::Rect CorrectionArea(const cv::Rect& box) {
+  const int grow = std::max(box.width, box.height);
+  return cv::Rect(box.x - grow, box.y - grow, box.width + 2 * grow, box.height + 2 * grow);
+}
+
+}  // namespace
+
+// Fills *observation; returns an empty string, or what is wrong with the input.
+std::string PrepareObservation(const Frame& frame, const Instance& instance, const SolverOptions& options,
+                               double diameter_m, Observation* observation) {
+  observation->mask = instance.mask > 0;
+  observation->box = cv::boundingRect(observation->mask);
+  if (observation->box.area() == 0) return "the instance mask is empty";
+  observation->truncated = TouchesBorder(observation->box, observation->mask.size());
+  if (options.reject_border_masks && observation->truncated) {
+    return "the instance mask touches the image border (object truncated; solved unless reject_border_masks)";
+  }
+  observation->depth = frame.depth.clone();
+  cv::Mat& depth = observation->depth;
+  cv::patchNaNs(depth, 0.0);
+  observation->score = options.score;
+  if (options.mask_trust == MaskTrust::kDepth) {
+    // The mask as evidence: its leaks removed, and the tolerance of "on the rendered
+    // surface" for the pixels it missed (region.h).
+    observation->region = ComputeObservedRegion(frame.camera, observation->mask, depth, diameter_m, options.region);
+    observation->mask = observation->region.mask;
+    observation->box = cv::boundingRect(observation->mask);
+    if (observation->box.area() == 0) return "the instance mask is empty once its leaks are removed";
+    observation->score.depth_evidence = true;
+    observation->score.surface_tolerance_m = observation->region.surface_tolerance_m;
+  }
+  const cv::Mat& mask = observation->mask;
+  const cv::Rect& box = observation->box;
+  int& valid_depth = observation->valid_depth;
+  observation->z_m = MedianMaskedDepth(mask, depth, &valid_depth);  // eq. (9), robust
+  if (valid_depth < options.min_valid_depth_pixels) {
+    return "the mask has " + std::to_string(valid_depth) + " pixels with valid depth (need " +
+           std::to_string(options.min_valid_depth_pixels) + ")";
+  }
+  // Observed cloud Y, deterministic image-space subsampling.
+  const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(valid_depth) / options.max_observed_points))));
+  std::vector<Eigen::Vector3d> observed;
+  for (int v = box.y + stride / 2; v < box.y + box.height; v += stride) {
+    for (int u = box.x + stride / 2; u < box.x + box.width; u += stride) {
+      const float z = depth.at<float>(v, u);
+      if (!mask.at<uint8_t>(v, u) || !(z > 0.0f)) continue;
+      observed.push_back(frame.camera.Backproject(PixelCentre(u, v), z));
+    }
+  }
+  observation->observed = std::make_unique<PointCloudIndex>(std::move(observed));
+  const cv::Mat& support = observation->region.support;
+  cv::Mat segments;
+  if (options.mask_trust == MaskTrust::kDepth && options.score.segment_own_fraction > 0.0) {
+    segments = SegmentByDepth(frame.camera, depth, mask, options.segments).labels;
+  }
+  observation->selection_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.selection_grid, support, segments);
+  observation->refine_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.refine_grid, support, segments);
+  return "";
+}
+
+void RefineWithCorrectedMask(const Frame& frame, const Instance& instance, const TemplateBank& bank,
+                             const SolverOptions& options, const Observation& observation,
+                             const ScoreOptions& online_score, const std::function<bool()>& out_of_time,
+                             Executor* executor, PoseResult* result) {
+  const cv::Mat given = instance.mask > 0;
+  const cv::Rect area = CorrectionArea(cv::boundingRect(given));
+  auto corrected_at = [&](const Eigen::Isometry3d& pose) {
+    return CorrectedMask(frame.camera, bank.online_mesh, pose, observation.depth,
+                         online_score.occlusion_margin_m, online_score.cull_backfaces, area);
+  };
+  cv::Mat corrected = corrected_at(result->cam_from_object);
+  if (options.mask_trust == MaskTrust::kDepth) {
+    for (int round = 0; round < options.mask_refine_rounds && !out_of_time(); ++round) {
+      if (cv::countNonZero(corrected) < options.min_valid_depth_pixels) break;
+      SolverOptions track_options = options;
+      track_options.mask_refine_rounds = 0;
+      const PoseResult again = TrackPose(frame, Instance{instance.object_id, corrected}, bank, track_options,
+                                         TrackSolveOptions(), {result->cam_from_object}, executor);
+      if (!again.success) break;
+      RasterImage scratch;
+      const PoseScore score = ScorePose(observation.refine_grid, bank.online_mesh, again.cam_from_object,
+                                        observation.z_m, online_score, &scratch);
+      if (!(score.s < result->details.s)) break;
+      result->cam_from_object = again.cam_from_object;
+      result->details = score;
+      ++result->mask_refined_rounds;
+      corrected = corrected_at(result->cam_from_object);
+    }
+  }
+  result->mask_iou = MaskIntersectionOverUnion(corrected, given);
+  result->corrected_mask = corrected;
+}
+
+}  // namespace g6d

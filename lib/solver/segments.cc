@@ -1,0 +1,138 @@
+#include "solver/segments.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <sstream>
+
+#include <opencv2/imgproc.hpp>
+
+#include "core/error.h"
+
+namespace g6d {
+
+std::string SegmentOptions::Check() const {
+  std::ostringstream out;
+  if (!(sensor_noise_at_1m >= 0.0 && sensor_noise_at_1m < 0.1)) out << "SegmentOptions.sensor_noise_at_1m must be in [0, 0.1) m (got " << sensor_noise_at_1m << ")";
+  else if (!(noise_sigmas > 0.0 && noise_sigmas <= 10.0)) out << "SegmentOptions.noise_sigmas must be in (0, 10] (got " << noise_sigmas << ")";
+  else if (!(max_incidence_deg >= 0.0 && max_incidence_deg < 89.0)) out << "SegmentOptions.max_incidence_deg must be in [0, 89) (got " << max_incidence_deg << ")";
+  else if (min_segment_pixels < 1) out << "SegmentOptions.min_segment_pixels must be >= 1 (got " << min_segment_pixels << ")";
+  return out.str();
+}
+
+namespace {
+
+// Union-find over the pixels of a box, with path halving and union by index (the smaller
+// root wins, so the result does not depend on the order of the unions).
+class DisjointSets {
+ public:
+  explicit DisjointSets(size_t count) : parent_(count) { std::iota(parent_.begin(), parent_.end(), 0); }
+  int Find(int i) {
+    while (parent_[static_cast<size_t>(i)] != i) {
+      parent_[static_cast<size_t>(i)] = parent_[static_cast<size_t>(parent_[static_cast<size_t>(i)])];
+      i = parent_[static_cast<size_t>(i)];
+    }
+    return i;
+  }
+  void Union(int a, int b) {
+    a = Find(a);
+    b = Find(b);
+    if (a == b) return;
+    if (a < b) std::swap(a, b);
+    parent_[static_cast<size_t>(a)] = b;
+  }
+
+ private:
+  std::vector<int> parent_;
+};
+
+}  // namespace
+
+DepthSegmentation SegmentByDepth(const Camera& camera, const cv::Mat& depth, const cv::Mat& region,
+                                 const SegmentOptions& options) {
+  const std::string bad = options.Check();
+  if (!bad.empty()) G6D_THROW(bad);
+  if (depth.type() != CV_32F || region.type() != CV_8U || depth.size() != region.size()) {
+    G6D_THROW("SegmentByDepth: depth must be CV_32F and region CV_8U of one size (got types " << depth.type() << ", "
+              << region.type() << ", sizes " << depth.cols << "x" << depth.rows << ", " << region.cols << "x"
+              << region.rows << ")");
+  }
+  DepthSegmentation result;
+  result.labels = cv::Mat::zeros(region.size(), CV_32S);
+  const cv::Rect box = cv::boundingRect(region);
+  if (box.area() == 0) return result;
+
+  auto valid_at = [&](int u, int v) {
+    const float z = depth.at<float>(v, u);
+    return region.at<uint8_t>(v, u) != 0 && z > 0.0f && std::isfinite(z);
+  };
+  // The largest step between neighbouring pixels of one surface at depth z: the noise of
+  // both (σ(z) = noise_at_1m · z², independent: √2 σ) and the slope of a surface seen at the
+  // steepest incidence over one pixel (z · tan θ / f, f the shorter focal length).
+  const double focal_px = std::min(camera.fx, camera.fy);
+  const double slope = std::tan(options.max_incidence_deg * M_PI / 180.0) / focal_px;
+  auto max_step_m = [&](double z) {
+    return options.noise_sigmas * std::sqrt(2.0) * options.sensor_noise_at_1m * z * z + z * slope;
+  };
+
+  const int width = box.width;
+  auto index = [&](int u, int v) { return (v - box.y) * width + (u - box.x); };
+  DisjointSets sets(static_cast<size_t>(box.area()));
+  for (int v = box.y; v < box.y + box.height; ++v) {
+    for (int u = box.x; u < box.x + box.width; ++u) {
+      if (!valid_at(u, v)) continue;
+      const float z = depth.at<float>(v, u);
+      if (u + 1 < box.x + box.width && valid_at(u + 1, v)) {
+        const float right = depth.at<float>(v, u + 1);
+        if (std::abs(right - z) <= max_step_m(std::max(z, right))) sets.Union(index(u, v), index(u + 1, v));
+      }
+      if (v + 1 < box.y + box.height && valid_at(u, v + 1)) {
+        const float below = depth.at<float>(v + 1, u);
+        if (std::abs(below - z) <= max_step_m(std::max(z, below))) sets.Union(index(u, v), index(u, v + 1));
+      }
+    }
+  }
+  // Component sizes by root; segments ordered by size (ties: the first pixel in raster order).
+  std::vector<int> size(static_cast<size_t>(box.area()), 0);
+  for (int v = box.y; v < box.y + box.height; ++v) {
+    for (int u = box.x; u < box.x + box.width; ++u) {
+      if (valid_at(u, v)) ++size[static_cast<size_t>(sets.Find(index(u, v)))];
+    }
+  }
+  std::vector<int> roots;
+  for (int i = 0; i < box.area(); ++i) {
+    if (size[static_cast<size_t>(i)] >= options.min_segment_pixels) roots.push_back(i);
+  }
+  std::stable_sort(roots.begin(), roots.end(),
+                   [&](int a, int b) { return size[static_cast<size_t>(a)] > size[static_cast<size_t>(b)]; });
+  std::vector<int> label_of_root(static_cast<size_t>(box.area()), 0);
+  for (size_t k = 0; k < roots.size(); ++k) label_of_root[static_cast<size_t>(roots[k])] = static_cast<int>(k) + 1;
+  result.segments.resize(roots.size());
+  std::vector<std::vector<float>> depths(roots.size());
+  std::vector<cv::Point> low(roots.size(), cv::Point(box.x + box.width, box.y + box.height));
+  std::vector<cv::Point> high(roots.size(), cv::Point(-1, -1));
+  for (int v = box.y; v < box.y + box.height; ++v) {
+    int* labels = result.labels.ptr<int>(v);
+    for (int u = box.x; u < box.x + box.width; ++u) {
+      if (!valid_at(u, v)) continue;
+      const int label = label_of_root[static_cast<size_t>(sets.Find(index(u, v)))];
+      if (label == 0) continue;
+      labels[u] = label;
+      const size_t k = static_cast<size_t>(label - 1);
+      depths[k].push_back(depth.at<float>(v, u));
+      low[k] = cv::Point(std::min(low[k].x, u), std::min(low[k].y, v));
+      high[k] = cv::Point(std::max(high[k].x, u), std::max(high[k].y, v));
+    }
+  }
+  for (size_t k = 0; k < roots.size(); ++k) {
+    DepthSegment& segment = result.segments[k];
+    segment.pixels = static_cast<int>(depths[k].size());
+    segment.box = cv::Rect(low[k], high[k] + cv::Point(1, 1));
+    const auto middle = depths[k].begin() + static_cast<std::ptrdiff_t>(depths[k].size() / 2);
+    std::nth_element(depths[k].begin(), middle, depths[k].end());
+    segment.median_depth_m = *middle;
+  }
+  return result;
+}
+
+}  // namespace g6d

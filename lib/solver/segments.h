@@ -1,0 +1,63 @@
+#pragma once
+/// @file segments.h
+/// A region split into depth-connected segments: the surfaces the depth shows, separated
+/// where the depth jumps.
+///
+/// A mask that covers more than the object (a segmenter merged the touching neighbours, or
+/// only a box was given) still holds the object as one or a few segments: two objects that
+/// touch in the image rarely touch in depth, and the step between them is far larger than
+/// the sensor's noise or the step between neighbouring pixels of one surface. The solver
+/// lets each pose own the segments it covers (ScoreOptions::segment_ownership): a segment no
+/// pose part covers is another object's, neither for nor against it.
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "core/camera.h"
+
+namespace g6d {
+
+/// Options of SegmentByDepth().
+struct SegmentOptions {
+  /// Depth noise of the sensor at 1 m, metres; σ grows with z² (as RegionOptions).
+  double sensor_noise_at_1m = 1.5e-3;
+  /// Noise standard deviations two neighbouring depths may differ by on one surface.
+  double noise_sigmas = 3.0;
+  /// The steepest surface a segment follows, degrees between the viewing ray and the surface
+  /// normal: neighbouring pixels of such a surface differ in depth by z · tan(angle) / f.
+  double max_incidence_deg = 75.0;
+  /// Segments with fewer valid-depth pixels than this are fragments (flying pixels at depth
+  /// edges, speckle): labelled 0, they belong to no segment.
+  int min_segment_pixels = 20;
+
+  /// Empty when valid, else names the bad field.
+  std::string Check() const;
+};
+
+/// One depth-connected segment.
+struct DepthSegment {
+  int pixels = 0;               ///< its pixels (all with valid depth)
+  cv::Rect box;                 ///< their bounding box, image pixels
+  double median_depth_m = 0.0;  ///< median depth of its pixels
+};
+
+/// The segments of a region.
+struct DepthSegmentation {
+  /// CV_32S, frame size: k > 0 for a pixel of segments[k - 1]; 0 outside the region, without
+  /// valid depth, or in a fragment.
+  cv::Mat labels;
+  /// Largest first.
+  std::vector<DepthSegment> segments;
+};
+
+/// Splits the pixels of `region` (CV_8U, non-zero = in) with valid depth (`depth`: CV_32F
+/// metres, 0 or NaN = invalid) into 4-connected segments whose neighbouring depths differ by
+/// at most the noise of the sensor plus the step of a surface at options.max_incidence_deg.
+/// Deterministic. Throws g6d::Error on bad options or mismatched sizes.
+DepthSegmentation SegmentByDepth(const Camera& camera, const cv::Mat& depth, const cv::Mat& region,
+                                 const SegmentOptions& options);
+
+}  // namespace g6d

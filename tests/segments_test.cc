@@ -1,0 +1,88 @@
+// Depth segments: surfaces split where the depth jumps, a steep surface kept whole, speckle
+// left out, and the options' checks.
+#include "solver/segments.h"
+
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+
+namespace g6d {
+namespace {
+
+constexpr int kWidth = 200, kHeight = 150;
+const Camera kCamera{300.0, 300.0, 100.0, 75.0, kWidth, kHeight};
+
+cv::Mat Filled(float depth_m) { return cv::Mat(kHeight, kWidth, CV_32F, cv::Scalar(depth_m)); }
+cv::Mat Everything() { return cv::Mat(kHeight, kWidth, CV_8U, cv::Scalar(255)); }
+
+TEST(SegmentByDepth, TwoObjectsSideBySideAtDifferentDepthsAreTwoSegments) {
+  cv::Mat depth = Filled(0.80f);
+  depth(cv::Rect(0, 0, 120, kHeight)).setTo(0.70f);  // the nearer object: 10 cm in front
+  const DepthSegmentation segmentation = SegmentByDepth(kCamera, depth, Everything(), SegmentOptions());
+  ASSERT_EQ(segmentation.segments.size(), 2u);
+  EXPECT_EQ(segmentation.segments[0].pixels, 120 * kHeight);  // largest first
+  EXPECT_EQ(segmentation.segments[1].pixels, 80 * kHeight);
+  EXPECT_FLOAT_EQ(segmentation.segments[0].median_depth_m, 0.70f);
+  EXPECT_EQ(segmentation.segments[1].box, cv::Rect(120, 0, 80, kHeight));
+  EXPECT_EQ(segmentation.labels.at<int>(10, 10), 1);
+  EXPECT_EQ(segmentation.labels.at<int>(10, 150), 2);
+}
+
+TEST(SegmentByDepth, ASteepPlaneIsOneSegmentAndASmallStepIsNoEdge) {
+  // A plane seen at 60 degrees from its normal: depth grows by z tan(60°) / f per pixel.
+  cv::Mat depth(kHeight, kWidth, CV_32F);
+  for (int v = 0; v < kHeight; ++v) {
+    for (int u = 0; u < kWidth; ++u) depth.at<float>(v, u) = 0.6f * std::pow(1.0f + 1.732f / 300.0f, static_cast<float>(u));
+  }
+  // A 2 mm step (a seam, sensor quantization) does not split it.
+  depth(cv::Rect(0, 70, kWidth, 10)) += 0.002f;
+  const DepthSegmentation segmentation = SegmentByDepth(kCamera, depth, Everything(), SegmentOptions());
+  ASSERT_EQ(segmentation.segments.size(), 1u);
+  EXPECT_EQ(segmentation.segments[0].pixels, kWidth * kHeight);
+}
+
+TEST(SegmentByDepth, OnlyTheRegionWithDepthIsSegmentedAndFragmentsAreLeftOut) {
+  cv::Mat depth = Filled(0.9f);
+  depth(cv::Rect(50, 50, 20, 20)).setTo(0.0f);        // a hole
+  depth(cv::Rect(100, 100, 3, 3)).setTo(0.5f);        // speckle: 9 pixels far in front
+  cv::Mat region = cv::Mat::zeros(kHeight, kWidth, CV_8U);
+  region(cv::Rect(40, 40, 100, 80)).setTo(255);
+  const DepthSegmentation segmentation = SegmentByDepth(kCamera, depth, region, SegmentOptions());
+  ASSERT_EQ(segmentation.segments.size(), 1u);
+  EXPECT_EQ(segmentation.segments[0].pixels, 100 * 80 - 20 * 20 - 9);
+  EXPECT_EQ(segmentation.labels.at<int>(60, 60), 0);    // no depth
+  EXPECT_EQ(segmentation.labels.at<int>(101, 101), 0);  // fragment
+  EXPECT_EQ(segmentation.labels.at<int>(10, 10), 0);    // outside the region
+  EXPECT_EQ(segmentation.labels.at<int>(45, 45), 1);
+}
+
+TEST(SegmentByDepth, SameLabelsWhateverTheSplitOrder) {
+  // Three strips, the middle one nearest: labels by size, so the result is fixed.
+  cv::Mat depth = Filled(1.0f);
+  depth(cv::Rect(60, 0, 70, kHeight)).setTo(0.8f);
+  depth(cv::Rect(130, 0, 70, kHeight)).setTo(1.2f);
+  const DepthSegmentation a = SegmentByDepth(kCamera, depth, Everything(), SegmentOptions());
+  const DepthSegmentation b = SegmentByDepth(kCamera, depth, Everything(), SegmentOptions());
+  ASSERT_EQ(a.segments.size(), 3u);
+  EXPECT_EQ(cv::countNonZero(a.labels != b.labels), 0);
+  // Two strips of 70 columns tie: the one met first in raster order is labelled first.
+  EXPECT_EQ(a.labels.at<int>(0, 60), 1);
+  EXPECT_EQ(a.labels.at<int>(0, 130), 2);
+  EXPECT_EQ(a.labels.at<int>(0, 0), 3);
+}
+
+TEST(SegmentByDepth, BadOptionsAndInputsAreRefusedByName) {
+  SegmentOptions options;
+  options.max_incidence_deg = 90.0;
+  try {
+    SegmentByDepth(kCamera, Filled(1.0f), Everything(), options);
+    FAIL() << "no throw";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("max_incidence_deg"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(SegmentByDepth(kCamera, cv::Mat(kHeight, kWidth, CV_16U), Everything(), SegmentOptions()), Error);
+  EXPECT_THROW(SegmentByDepth(kCamera, Filled(1.0f), cv::Mat(10, 10, CV_8U), SegmentOptions()), Error);
+}
+
+}  // namespace
+}  // namespace g6d
