@@ -1,6 +1,8 @@
 // S and E_obs against hand-computed cases; grid construction.
 #include "solver/score.h"
 
+#include "solver/segments.h"
+
 #include <gtest/gtest.h>
 
 namespace g6d {
@@ -171,6 +173,38 @@ TEST(ScoreRendering, DepthEvidenceLeavesOutTheSegmentsAPoseDoesNotCover) {
   const PoseScore reaching = ScoreRendering(grid, rendered, 1.0, evidence);
   EXPECT_EQ(reaching.foreign_pixels, 0);
   EXPECT_DOUBLE_EQ(reaching.iou, 25.0 / 35.0);
+}
+
+// ... but a segment the object could reach from what the pose covers is the pose's to
+// explain (a part behind a depth step): only beyond the object's extent is it another's.
+TEST(ScoreRendering, DepthEvidenceLeavesOutOnlySegmentsBeyondTheObjectsReach) {
+  EvaluationGrid grid = MakeGrid();
+  grid.mask(cv::Rect(6, 2, 3, 5)).setTo(255);
+  grid.depth(cv::Rect(6, 2, 3, 5)).setTo(0.9f);
+  grid.mask_pixels = 35;
+  grid.segment = cv::Mat::zeros(10, 10, CV_32S);
+  grid.segment(cv::Rect(2, 2, 4, 5)).setTo(1);
+  grid.segment(cv::Rect(6, 2, 3, 5)).setTo(2);
+  grid.segment_pixels = {0, 20, 15};
+  // Segment 1 spans 0..4 cm along every direction, segment 2 6..9 cm: together 9 cm.
+  Spans first, second;
+  first.low.fill(0.0);
+  first.high.fill(0.04);
+  second.low.fill(0.06);
+  second.high.fill(0.09);
+  grid.segment_spans = {Spans(), first, second};
+  RasterImage rendered;
+  rendered.depth = cv::Mat::zeros(10, 10, CV_32F);
+  rendered.depth(cv::Rect(2, 2, 4, 5)).setTo(1.0f);
+  ScoreOptions evidence;
+  evidence.depth_evidence = true;
+  evidence.surface_tolerance_m = 0.005;
+  evidence.max_object_extent_m = 0.10;  // the object could span both: segment 2 counts
+  EXPECT_EQ(ScoreRendering(grid, rendered, 1.0, evidence).foreign_pixels, 0);
+  EXPECT_DOUBLE_EQ(ScoreRendering(grid, rendered, 1.0, evidence).iou, 20.0 / 35.0);
+  evidence.max_object_extent_m = 0.08;  // it could not: segment 2 is another object's
+  EXPECT_EQ(ScoreRendering(grid, rendered, 1.0, evidence).foreign_pixels, 15);
+  EXPECT_DOUBLE_EQ(ScoreRendering(grid, rendered, 1.0, evidence).iou, 1.0);
 }
 
 }  // namespace

@@ -71,12 +71,19 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
   }
   observation->observed = std::make_unique<PointCloudIndex>(std::move(observed));
   const cv::Mat& support = observation->region.support;
-  cv::Mat segments;
-  if (options.mask_trust == MaskTrust::kDepth && options.score.segment_own_fraction > 0.0) {
-    segments = SegmentByDepth(frame.camera, depth, mask, options.segments).labels;
+  DepthSegmentation segments;
+  const bool by_segment = options.mask_trust == MaskTrust::kDepth && options.score.segment_own_fraction > 0.0;
+  if (by_segment) {
+    segments = SegmentByDepth(frame.camera, depth, mask, options.segments);
+    // No two visible points of the object lie farther apart than its diameter, plus the
+    // depth noise and a pixel's footprint at each end.
+    const double noise_m = options.segments.noise_sigmas * options.segments.sensor_noise_at_1m * observation->z_m * observation->z_m;
+    const double pixel_m = observation->z_m / std::min(frame.camera.fx, frame.camera.fy);
+    observation->score.max_object_extent_m = diameter_m + 2.0 * (noise_m + pixel_m);
   }
-  observation->selection_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.selection_grid, support, segments);
-  observation->refine_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.refine_grid, support, segments);
+  const DepthSegmentation* segmentation = by_segment ? &segments : nullptr;
+  observation->selection_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.selection_grid, support, segmentation);
+  observation->refine_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.refine_grid, support, segmentation);
   return "";
 }
 

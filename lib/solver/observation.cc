@@ -54,9 +54,11 @@ double MedianMaskedDepth(const cv::Mat& mask, const cv::Mat& depth, int* valid_p
 }
 
 EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, const cv::Mat& depth,
-                                  const GridOptions& options, const cv::Mat& support, const cv::Mat& segments) {
+                                  const GridOptions& options, const cv::Mat& support,
+                                  const DepthSegmentation* segmentation) {
   G6D_CHECK(mask.type() == CV_8U && depth.type() == CV_32F);
   G6D_CHECK(support.empty() || (support.type() == CV_8U && support.size() == mask.size()));
+  const cv::Mat segments = segmentation != nullptr ? segmentation->labels : cv::Mat();
   G6D_CHECK(segments.empty() || (segments.type() == CV_32S && segments.size() == mask.size()));
   G6D_CHECK(mask.cols == camera.width && mask.rows == camera.height && depth.size() == mask.size());
   EvaluationGrid grid;
@@ -124,6 +126,9 @@ EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, con
     if (present < 2) {
       grid.segment.release();
       grid.segment_pixels.clear();
+    } else {
+      grid.segment_spans.resize(grid.segment_pixels.size());
+      for (size_t k = 1; k < grid.segment_spans.size(); ++k) grid.segment_spans[k] = segmentation->segments[k - 1].spans;
     }
   }
   return grid;

@@ -11,6 +11,7 @@
 
 #include "core/camera.h"
 #include "core/frame.h"
+#include "solver/segments.h"
 
 namespace g6d {
 
@@ -26,6 +27,8 @@ struct EvaluationGrid {
   cv::Mat segment;
   /// Mask pixels on the grid per segment label (index 0: mask pixels in no segment).
   std::vector<int> segment_pixels;
+  /// The spans of each segment (DepthSegment::spans) by label (index 0 unused).
+  std::vector<Spans> segment_spans;
   int mask_pixels = 0;
 };
 
@@ -42,11 +45,10 @@ struct GridOptions {
 /// Resamples `mask` (CV_8U, non-zero = object) and `depth` (CV_32F metres) of the full
 /// image onto the ROI around the mask box, clipped to the image.
 /// `support` (optional, CV_8U frame size, non-zero = on the support plane) is resampled too,
-/// and so are `segments` (optional, CV_32S frame size, DepthSegmentation::labels) inside the
-/// mask when they hold two segments or more.
+/// and so are the depth `segments` of the mask (optional) when it holds two or more.
 EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, const cv::Mat& depth,
                                   const GridOptions& options, const cv::Mat& support = cv::Mat(),
-                                  const cv::Mat& segments = cv::Mat());
+                                  const DepthSegmentation* segments = nullptr);
 
 /// z_M of eq. (9): mean observed depth over mask pixels with valid depth, metres;
 /// 0 when there is none. *valid_pixels (optional) receives their count.

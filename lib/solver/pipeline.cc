@@ -550,6 +550,11 @@ SolveContext MakeSolveContext(const Frame& frame, const TemplateBank& bank, cons
   context.selection_mesh = coarse ? &bank.selection_mesh : &bank.online_mesh;
   context.selection_score.cull_backfaces =
       options.cull_backfaces && (coarse ? bank.selection_mesh_closed : bank.online_mesh_closed);
+  // Observable selection ranks PnP poses before any refinement, their depth often
+  // centimetres off: the depth cannot judge them yet (a pose 2 cm too far would have every
+  // mask pixel "in front of it", an occluder). It reads the region the depth corrected, as
+  // the paper reads the mask; the depth's evidence enters from ICP on.
+  context.selection_score.depth_evidence = false;
   return context;
 }
 

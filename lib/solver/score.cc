@@ -15,6 +15,7 @@ std::string ScoreOptions::Check() const {
   else if (!std::isfinite(occlusion_margin_m)) out << "ScoreOptions.occlusion_margin_m must be finite (got " << occlusion_margin_m << ")";
   else if (!(surface_tolerance_m >= 0.0 && std::isfinite(surface_tolerance_m))) out << "ScoreOptions.surface_tolerance_m must be finite and >= 0 (got " << surface_tolerance_m << ")";
   else if (!(segment_own_fraction >= 0.0 && segment_own_fraction <= 1.0)) out << "ScoreOptions.segment_own_fraction must be in [0, 1] (got " << segment_own_fraction << ")";
+  else if (!(max_object_extent_m >= 0.0 && std::isfinite(max_object_extent_m))) out << "ScoreOptions.max_object_extent_m must be finite and >= 0 (got " << max_object_extent_m << ")";
   return out.str();
 }
 
@@ -40,8 +41,20 @@ PoseScore ScoreRendering(const EvaluationGrid& grid, const RasterImage& rendered
       }
     }
     owned.assign(covered.size(), 1);
+    const bool have_spans = grid.segment_spans.size() == covered.size();
+    bool any_owned = false;
+    Spans owned_spans;
     for (size_t k = 1; k < covered.size(); ++k) {
       owned[k] = covered[k] >= options.segment_own_fraction * grid.segment_pixels[k];
+      if (!owned[k] || grid.segment_pixels[k] == 0 || !have_spans) continue;
+      owned_spans = any_owned ? owned_spans.Union(grid.segment_spans[k]) : grid.segment_spans[k];
+      any_owned = true;
+    }
+    // A segment the object could reach from what the pose covers is the pose's to explain.
+    for (size_t k = 1; k < covered.size() && options.max_object_extent_m > 0.0 && have_spans; ++k) {
+      if (owned[k]) continue;
+      const Spans reach = any_owned ? owned_spans.Union(grid.segment_spans[k]) : grid.segment_spans[k];
+      owned[k] = reach.Extent() <= options.max_object_extent_m;
     }
   }
   for (int v = 0; v < grid.mask.rows; ++v) {

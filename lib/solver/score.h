@@ -41,6 +41,12 @@ struct ScoreOptions {
   /// for nor against it. A pose that covers part of a segment must explain all of it.
   /// 0 = every mask pixel counts (as without segments).
   double segment_own_fraction = 0.25;
+  /// ... but only a segment that the object could not reach is another object's: one that
+  /// spans more than this together with the segments the pose owns (Spans::Extent; the
+  /// pipeline sets it per instance: the diameter plus the depth noise at both ends). A
+  /// segment within reach (a handle behind a depth step, a part seen past an occluder) must
+  /// be explained. 0 = no such limit.
+  double max_object_extent_m = 0.0;
 
   std::string Check() const;
 };

@@ -20,6 +20,33 @@ std::string SegmentOptions::Check() const {
   return out.str();
 }
 
+const std::array<Eigen::Vector3d, kSpanDirections>& SpanDirections() {
+  static const std::array<Eigen::Vector3d, kSpanDirections> directions = [] {
+    const Eigen::Vector3d raw[kSpanDirections] = {
+        {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 0}, {1, -1, 0}, {1, 0, 1}, {1, 0, -1},
+        {0, 1, 1}, {0, 1, -1}, {1, 1, 1}, {1, 1, -1}, {1, -1, 1}, {-1, 1, 1}};
+    std::array<Eigen::Vector3d, kSpanDirections> unit;
+    for (int k = 0; k < kSpanDirections; ++k) unit[static_cast<size_t>(k)] = raw[k].normalized();
+    return unit;
+  }();
+  return directions;
+}
+
+Spans Spans::Union(const Spans& other) const {
+  Spans spans;
+  for (size_t k = 0; k < low.size(); ++k) {
+    spans.low[k] = std::min(low[k], other.low[k]);
+    spans.high[k] = std::max(high[k], other.high[k]);
+  }
+  return spans;
+}
+
+double Spans::Extent() const {
+  double extent = 0.0;
+  for (size_t k = 0; k < low.size(); ++k) extent = std::max(extent, high[k] - low[k]);
+  return extent;
+}
+
 namespace {
 
 // Union-find over the pixels of a box, with path halving and union by index (the smaller
@@ -109,6 +136,7 @@ DepthSegmentation SegmentByDepth(const Camera& camera, const cv::Mat& depth, con
   for (size_t k = 0; k < roots.size(); ++k) label_of_root[static_cast<size_t>(roots[k])] = static_cast<int>(k) + 1;
   result.segments.resize(roots.size());
   std::vector<std::vector<float>> depths(roots.size());
+  std::vector<std::vector<Eigen::Vector3d>> points(roots.size());
   std::vector<cv::Point> low(roots.size(), cv::Point(box.x + box.width, box.y + box.height));
   std::vector<cv::Point> high(roots.size(), cv::Point(-1, -1));
   for (int v = box.y; v < box.y + box.height; ++v) {
@@ -120,6 +148,7 @@ DepthSegmentation SegmentByDepth(const Camera& camera, const cv::Mat& depth, con
       labels[u] = label;
       const size_t k = static_cast<size_t>(label - 1);
       depths[k].push_back(depth.at<float>(v, u));
+      points[k].push_back(camera.Backproject(PixelCentre(u, v), depth.at<float>(v, u)));
       low[k] = cv::Point(std::min(low[k].x, u), std::min(low[k].y, v));
       high[k] = cv::Point(std::max(high[k].x, u), std::max(high[k].y, v));
     }
@@ -131,6 +160,18 @@ DepthSegmentation SegmentByDepth(const Camera& camera, const cv::Mat& depth, con
     const auto middle = depths[k].begin() + static_cast<std::ptrdiff_t>(depths[k].size() / 2);
     std::nth_element(depths[k].begin(), middle, depths[k].end());
     segment.median_depth_m = *middle;
+    // Spans between the 2% and 98% quantiles of the projections.
+    std::vector<double> projections(points[k].size());
+    const size_t trim = points[k].size() / 50;
+    for (int d = 0; d < kSpanDirections; ++d) {
+      const Eigen::Vector3d& direction = SpanDirections()[static_cast<size_t>(d)];
+      for (size_t i = 0; i < points[k].size(); ++i) projections[i] = direction.dot(points[k][i]);
+      std::nth_element(projections.begin(), projections.begin() + static_cast<std::ptrdiff_t>(trim), projections.end());
+      segment.spans.low[static_cast<size_t>(d)] = projections[trim];
+      const size_t top = projections.size() - 1 - trim;
+      std::nth_element(projections.begin(), projections.begin() + static_cast<std::ptrdiff_t>(top), projections.end());
+      segment.spans.high[static_cast<size_t>(d)] = projections[top];
+    }
   }
   return result;
 }

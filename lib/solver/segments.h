@@ -10,6 +10,7 @@
 /// lets each pose own the segments it covers (ScoreOptions::segment_ownership): a segment no
 /// pose part covers is another object's, neither for nor against it.
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -37,11 +38,30 @@ struct SegmentOptions {
   std::string Check() const;
 };
 
+/// Directions of the spans that bound a set of points' extent: the camera axes and the
+/// face and body diagonals (13, unit length). Two of the points are at least the largest
+/// span apart, and every direction lies within 27.6 degrees of one of them, so the largest
+/// span is at least cos(27.6°) = 0.89 of the set's diameter.
+inline constexpr int kSpanDirections = 13;
+const std::array<Eigen::Vector3d, kSpanDirections>& SpanDirections();
+
+/// Where a set of points lies along each of SpanDirections(), metres (camera frame).
+struct Spans {
+  std::array<double, kSpanDirections> low{}, high{};
+  /// The spans of the union with `other`.
+  Spans Union(const Spans& other) const;
+  /// The largest span: a lower bound on the distance between two of the points.
+  double Extent() const;
+};
+
 /// One depth-connected segment.
 struct DepthSegment {
   int pixels = 0;               ///< its pixels (all with valid depth)
   cv::Rect box;                 ///< their bounding box, image pixels
   double median_depth_m = 0.0;  ///< median depth of its pixels
+  /// Spans of its back-projected pixels, each between the 2% and 98% quantiles (flying
+  /// pixels at its edges left out).
+  Spans spans;
 };
 
 /// The segments of a region.
