@@ -2,6 +2,8 @@
 // left out, and the options' checks.
 #include "solver/segments.h"
 
+#include <cmath>
+
 #include <gtest/gtest.h>
 
 #include "core/error.h"
@@ -69,6 +71,29 @@ TEST(SegmentByDepth, SameLabelsWhateverTheSplitOrder) {
   EXPECT_EQ(a.labels.at<int>(0, 60), 1);
   EXPECT_EQ(a.labels.at<int>(0, 130), 2);
   EXPECT_EQ(a.labels.at<int>(0, 0), 3);
+}
+
+TEST(SegmentByDepth, SpansBoundTheSegmentsExtent) {
+  // A fronto-parallel 100 x 150 px patch at 0.9 m: 30 cm x 45 cm (f = 300 px); its spans
+  // along x and y are those sizes less the 2% trimmed at each end, along z about 0.
+  cv::Mat depth = Filled(0.9f);
+  cv::Mat region = cv::Mat::zeros(kHeight, kWidth, CV_8U);
+  region(cv::Rect(50, 0, 100, kHeight)).setTo(255);
+  const DepthSegmentation segmentation = SegmentByDepth(kCamera, depth, region, SegmentOptions());
+  ASSERT_EQ(segmentation.segments.size(), 1u);
+  const Spans& spans = segmentation.segments[0].spans;
+  EXPECT_NEAR(spans.high[0] - spans.low[0], 0.30 * 0.96, 0.01);
+  EXPECT_NEAR(spans.high[1] - spans.low[1], 0.45 * 0.96, 0.01);
+  EXPECT_NEAR(spans.high[2] - spans.low[2], 0.0, 1e-6);
+  // The largest span is the diagonal's projection, at most the diagonal.
+  EXPECT_GE(spans.Extent(), 0.45 * 0.96 - 0.01);
+  EXPECT_LE(spans.Extent(), std::hypot(0.30, 0.45));
+  // A union spans both.
+  Spans other = spans;
+  for (double& high : other.high) high += 0.1;
+  EXPECT_NEAR(spans.Union(other).Extent(), other.Extent(), 1e-12);
+  EXPECT_GE(spans.Union(other).high[0], other.high[0]);
+  EXPECT_LE(spans.Union(other).low[0], spans.low[0]);
 }
 
 TEST(SegmentByDepth, BadOptionsAndInputsAreRefusedByName) {
