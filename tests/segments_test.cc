@@ -96,6 +96,29 @@ TEST(SegmentByDepth, SpansBoundTheSegmentsExtent) {
   EXPECT_LE(spans.Union(other).low[0], spans.low[0]);
 }
 
+TEST(GrowRegionByDepth, AnErodedMaskGrowsOverItsSurfaceButNotOntoTheBackgroundOrTheSupport) {
+  // An object face at 0.7 m (60 x 50 px) in front of a wall at 1.0 m; the mask is the face
+  // eroded by 6 px. The left 10 columns of the face are marked as support.
+  cv::Mat depth = Filled(1.0f);
+  const cv::Rect face(60, 40, 60, 50);
+  depth(face).setTo(0.7f);
+  cv::Mat mask = cv::Mat::zeros(kHeight, kWidth, CV_8U);
+  mask(cv::Rect(face.x + 6, face.y + 6, face.width - 12, face.height - 12)).setTo(255);
+  cv::Mat support = cv::Mat::zeros(kHeight, kWidth, CV_8U);
+  support(cv::Rect(face.x, face.y, 4, face.height)).setTo(255);
+  const cv::Mat grown = GrowRegionByDepth(kCamera, depth, mask, support, 0.5, 30, SegmentOptions());
+  EXPECT_EQ(cv::countNonZero(grown), face.area() - 4 * face.height);
+  EXPECT_EQ(cv::countNonZero(grown(face)), face.area() - 4 * face.height);
+  // Within 3 steps only the first 3 rings (4-neighbour growth: a diamond at the corners).
+  const cv::Mat near = GrowRegionByDepth(kCamera, depth, mask, cv::Mat(), 0.5, 3, SegmentOptions());
+  EXPECT_GT(cv::countNonZero(near), cv::countNonZero(mask));
+  EXPECT_LT(cv::countNonZero(near), face.area());
+  EXPECT_EQ(cv::countNonZero(near(cv::Rect(face.x, face.y, 3, face.height))), 0);
+  // Within a 1 cm reach of the mask's median point nothing new is close enough.
+  const cv::Mat short_reach = GrowRegionByDepth(kCamera, depth, mask, cv::Mat(), 0.01, 30, SegmentOptions());
+  EXPECT_LT(cv::countNonZero(short_reach), cv::countNonZero(mask) + 10);
+}
+
 TEST(SegmentByDepth, BadOptionsAndInputsAreRefusedByName) {
   SegmentOptions options;
   options.max_incidence_deg = 90.0;

@@ -82,6 +82,37 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
     observation->score.max_object_extent_m = diameter_m + 2.0 * (noise_m + pixel_m);
   }
   const DepthSegmentation* segmentation = by_segment ? &segments : nullptr;
+  const bool grow = options.mask_trust == MaskTrust::kDepth && options.region.grow_fraction > 0.0;
+  const int grow_steps = static_cast<int>(std::ceil(options.region.grow_fraction * std::max(box.width, box.height)));
+  auto search_region = [&](const cv::Mat& region, double z_m) {
+    Observation::SearchRegion search;
+    search.mask = grow ? GrowRegionByDepth(frame.camera, depth, region, support, diameter_m, grow_steps, options.segments)
+                       : region;
+    search.box = cv::boundingRect(search.mask);
+    search.z_m = z_m;
+    return search;
+  };
+  observation->search_regions.push_back(search_region(mask, observation->z_m));
+  if (by_segment && options.max_search_regions > 0 && segments.segments.size() >= 2) {
+    // A region wider than the object can reach holds more than the object: its large
+    // segments that the object could be are searched alone too.
+    Spans all = segments.segments.front().spans;
+    int total = 0;
+    for (const DepthSegment& segment : segments.segments) {
+      all = all.Union(segment.spans);
+      total += segment.pixels;
+    }
+    if (all.Extent() > observation->score.max_object_extent_m) {
+      for (size_t k = 0; k < segments.segments.size(); ++k) {
+        const DepthSegment& segment = segments.segments[k];
+        if (static_cast<int>(observation->search_regions.size()) > options.max_search_regions) break;
+        if (segment.pixels < options.min_valid_depth_pixels || segment.pixels < 0.1 * total) break;  // largest first
+        if (segment.spans.Extent() > observation->score.max_object_extent_m) continue;
+        cv::Mat region = segments.labels == static_cast<int>(k) + 1;
+        observation->search_regions.push_back(search_region(region, segment.median_depth_m));
+      }
+    }
+  }
   observation->selection_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.selection_grid, support, segmentation);
   observation->refine_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.refine_grid, support, segmentation);
   return "";

@@ -9,6 +9,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -32,6 +33,17 @@ struct Observation {
   int valid_depth = 0;       // mask pixels with valid depth
   bool truncated = false;    // the mask touches the image border
   ObservedRegion region;     // what the depth changed in the caller's mask (MaskTrust::kDepth)
+  // The regions the search reads (ORB crop, keypoint depths, the mask box and z of PnP's
+  // prior). First the mask grown by the depth over the object it missed (kDepth,
+  // RegionOptions::grow_fraction), else the mask; then, when the region spans more than
+  // the object can (a merged or boxed mask), its largest depth segments within the
+  // object's reach, each alone (SolverOptions::max_search_regions).
+  struct SearchRegion {
+    cv::Mat mask;
+    cv::Rect box;
+    double z_m = 0.0;
+  };
+  std::vector<SearchRegion> search_regions;
   ScoreOptions score;        // options.score with this instance's depth evidence
   std::unique_ptr<PointCloudIndex> observed;  // Y: observed points inside the mask
   EvaluationGrid selection_grid, refine_grid;

@@ -32,6 +32,7 @@ std::string SolverOptions::Check() const {
   if (!bad.empty()) return bad;
   std::ostringstream out;
   if (num_hypotheses < 1) out << "SolverOptions.num_hypotheses must be >= 1 (got " << num_hypotheses << ")";
+  else if (max_search_regions < 0 || max_search_regions > 8) out << "SolverOptions.max_search_regions must be in [0, 8] (got " << max_search_regions << ")";
   else if (max_observed_points < 10) out << "SolverOptions.max_observed_points must be >= 10 (got " << max_observed_points << ")";
   else if (max_source_points < 10) out << "SolverOptions.max_source_points must be >= 10 (got " << max_source_points << ")";
   else if (min_valid_depth_pixels < 3) out << "SolverOptions.min_valid_depth_pixels must be >= 3 (got " << min_valid_depth_pixels << ")";
@@ -377,19 +378,19 @@ struct SolveContext {
 // options.pnp_min_quality_ratio of the best Q), then the poses equal modulo the symmetries
 // to a better-ranked one are merged (options.merge_pnp_poses). Past the PnP share of the
 // budget no new set starts once one pose exists.
-std::vector<Hypothesis> RunPnpStage(const SolveContext& c, const std::vector<CorrespondenceSet>& sets,
-                                    const std::vector<Feature>& query) {
+std::vector<Hypothesis> RunPnpStage(const SolveContext& c, const Observation::SearchRegion& region,
+                                    const std::vector<CorrespondenceSet>& sets, const std::vector<Feature>& query) {
   const SolverOptions& options = c.options;
   const Observation& observation = c.observation;
-  const double projected_size_px = std::max(observation.box.width, observation.box.height);
+  const double projected_size_px = std::max(region.box.width, region.box.height);
   std::vector<Eigen::Vector2d> query_image_points(query.size());
   for (size_t i = 0; i < query.size(); ++i) {
     query_image_points[i] = query[i].xy.cast<double>() + Eigen::Vector2d::Constant(kOpenCvToImage);
   }
   const std::vector<Eigen::Vector3d> query_points_in_cam =
-      BackprojectKeypoints(c.frame.camera, observation.depth, observation.mask, query_image_points);
+      BackprojectKeypoints(c.frame.camera, observation.depth, region.mask, query_image_points);
   PnpPrior prior;
-  prior.z_m = observation.z_m;
+  prior.z_m = region.z_m;
   prior.diameter_m = c.bank.diameter_m;
   prior.centre_in_object = c.bank.bounding_box.center();
   prior.query_points_in_cam = &query_points_in_cam;
@@ -564,35 +565,67 @@ struct Search {
   std::vector<Hypothesis> hypotheses;
 };
 
-// Stages 1 and 2: ORB on the normalized mask crop, template matching (correspondence sets
-// ranked by Q_j), the template seed pose, and MSAC-PnP per set with equal poses merged.
-// Returns an empty string, or why no hypothesis came out (the solve's kNoHypothesis).
+// Stages 1 and 2 on one search region: ORB on its normalized crop, template matching
+// (correspondence sets ranked by Q_j), MSAC-PnP per set with equal poses merged. The sets
+// are appended to search->sets and the hypotheses (their ranks into it) to `hypotheses`.
+// Returns an empty string, or why this region gave no set.
+std::string SearchOneRegion(const SolveContext& c, const Observation::SearchRegion& region, Search* search,
+                         std::vector<Hypothesis>* hypotheses) {
+  StageReport& stages = *c.stages;
+  Stopwatch watch;
+  const NormalizedCrop crop = NormalizeCrop(c.frame.rgb, region.mask, c.bank.options.crop);
+  const std::vector<Feature> query = DetectOrb(crop, c.options.query_orb);
+  stages.query_features += static_cast<int>(query.size());
+  stages.features_ms += watch.ElapsedMs();
+  watch.Restart();
+  std::vector<CorrespondenceSet> sets;
+  MatchReport match_report;
+  MatchTemplates(c.options.match, query, c.bank, c.executor, &sets, &match_report);
+  stages.match_ms += watch.ElapsedMs();
+  stages.correspondence_sets += static_cast<int>(sets.size());
+  stages.best_quality = std::max(stages.best_quality, match_report.best_quality);
+  if (!match_report.success) return "matching: " + match_report.message;
+  if (search->sets.empty()) {
+    // Template seed: the best template's rotation, translated onto the region centre at z_M.
+    const Template& best = c.bank.templates[static_cast<size_t>(sets.front().template_index)];
+    const Eigen::Vector2d centre(region.box.x + 0.5 * region.box.width, region.box.y + 0.5 * region.box.height);
+    stages.seed_pose.linear() = best.cam_from_object.linear();
+    stages.seed_pose.translation() =
+        c.frame.camera.Backproject(centre, region.z_m) - best.cam_from_object.linear() * c.bank.bounding_box.center();
+  }
+  watch.Restart();
+  const int tried_before = stages.sets_tried;
+  *hypotheses = RunPnpStage(c, region, sets, query);
+  stages.sets_tried += tried_before;
+  const int offset = static_cast<int>(search->sets.size());
+  for (Hypothesis& h : *hypotheses) h.set_rank += offset;
+  search->sets.insert(search->sets.end(), sets.begin(), sets.end());
+  stages.pnp_ms += watch.ElapsedMs();
+  return "";
+}
+
+// Stages 1 and 2 on every search region (the whole region first), the hypotheses pooled:
+// one equal (modulo the symmetries) to an earlier region's is dropped. Returns an empty
+// string, or why no hypothesis came out (the solve's kNoHypothesis).
 std::string RunSearchStages(const SolveContext& c, Search* search) {
   StageReport& stages = *c.stages;
-  const Observation& observation = c.observation;
-  Stopwatch watch;
-  const NormalizedCrop crop = NormalizeCrop(c.frame.rgb, observation.mask, c.bank.options.crop);
-  const std::vector<Feature> query = DetectOrb(crop, c.options.query_orb);
-  stages.query_features = static_cast<int>(query.size());
-  stages.features_ms = watch.ElapsedMs();
-  watch.Restart();
-  MatchReport match_report;
-  MatchTemplates(c.options.match, query, c.bank, c.executor, &search->sets, &match_report);
-  stages.match_ms = watch.ElapsedMs();
-  stages.correspondence_sets = static_cast<int>(search->sets.size());
-  stages.best_quality = match_report.best_quality;
-  if (!match_report.success) return "matching: " + match_report.message;
-  // Template seed: the best template's rotation, translated onto the mask centre at z_M.
-  const Template& best = c.bank.templates[static_cast<size_t>(search->sets.front().template_index)];
-  const cv::Rect& box = observation.box;
-  const Eigen::Vector2d mask_centre(box.x + 0.5 * box.width, box.y + 0.5 * box.height);
-  stages.seed_pose.linear() = best.cam_from_object.linear();
-  stages.seed_pose.translation() =
-      c.frame.camera.Backproject(mask_centre, observation.z_m) - best.cam_from_object.linear() * c.bank.bounding_box.center();
-
-  watch.Restart();
-  search->hypotheses = RunPnpStage(c, search->sets, query);
-  stages.pnp_ms = watch.ElapsedMs();
+  std::string why_not;
+  const double distinct_m = c.options.distinct_pose_fraction * c.bank.diameter_m;
+  for (const Observation::SearchRegion& region : c.observation.search_regions) {
+    if (!search->hypotheses.empty() && c.clock->OutOfTime(kPnpBudgetShare)) break;
+    std::vector<Hypothesis> found;
+    const std::string why = SearchOneRegion(c, region, search, &found);
+    if (why_not.empty()) why_not = why;
+    for (const Hypothesis& h : found) {
+      bool distinct = true;
+      for (size_t k = 0; k < search->hypotheses.size() && distinct && c.options.merge_pnp_poses; ++k) {
+        distinct = !c.comparer.Within(h.cam_from_object, search->hypotheses[k].cam_from_object, distinct_m);
+      }
+      if (distinct) search->hypotheses.push_back(h);
+    }
+    ++stages.search_regions;
+  }
+  if (search->sets.empty()) return why_not;
   if (search->hypotheses.empty()) {
     return "MSAC-PnP found no valid pose in " + std::to_string(stages.sets_tried) + " correspondence sets";
   }

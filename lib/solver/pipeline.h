@@ -48,6 +48,11 @@ struct SolverOptions {
   /// The mask's depth segments (kDepth): each pose owns the segments it covers and the rest
   /// are another object's (ScoreOptions::segment_own_fraction; a merged or boxed mask).
   SegmentOptions segments;
+  /// When the mask's depth segments span more than the object can (kDepth: merged with a
+  /// neighbour, or a box), the search (features, matching, PnP) also runs on each of its
+  /// largest segments within the object's reach, at most this many; the hypotheses are
+  /// pooled. 0 = the whole region only.
+  int max_search_regions = 2;
   /// The mask refined with the pose (kDepth): after the solve, ICP + MHPO from T_A on the
   /// mask T_A implies (CorrectedMask), accepted when S with the caller's mask as evidence
   /// is lower; repeated while it improves, at most this many times (0 = off).
@@ -173,8 +178,11 @@ const char* TerminationName(Termination termination);
 
 /// Counts, best scores and times of each stage: the interpretable intermediate results.
 struct StageReport {
-  int query_features = 0;
-  int correspondence_sets = 0;     ///< after matching (≤ N_P)
+  int query_features = 0;          ///< over every search region
+  int correspondence_sets = 0;     ///< after matching (≤ N_P per search region)
+  /// Regions the search ran on: 1, or more for a mask that spans more than the object
+  /// (SolverOptions::max_search_regions).
+  int search_regions = 0;
   int pnp_hypotheses = 0;          ///< valid MSAC-PnP poses
   int kept_hypotheses = 0;         ///< after observable selection (≤ N_H)
   int icp_converged = 0;

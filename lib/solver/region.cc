@@ -39,6 +39,7 @@ std::string RegionOptions::Check() const {
   else if (!(min_plane_fraction > 0.0 && min_plane_fraction <= 1.0)) out << "RegionOptions.min_plane_fraction must be in (0, 1] (got " << min_plane_fraction << ")";
   else if (min_plane_points < 3) out << "RegionOptions.min_plane_points must be >= 3 (got " << min_plane_points << ")";
   else if (!(far_fraction > 0.0)) out << "RegionOptions.far_fraction must be > 0 (got " << far_fraction << ")";
+  else if (!(grow_fraction >= 0.0 && grow_fraction <= 2.0)) out << "RegionOptions.grow_fraction must be in [0, 2] (got " << grow_fraction << ")";
   return out.str();
 }
 

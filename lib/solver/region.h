@@ -59,6 +59,11 @@ struct RegionOptions {
   /// (behind: the background; in front: an occluder) is a leak: two visible points of the
   /// object are never farther apart than the diameter.
   double far_fraction = 1.0;
+  /// The search (features, PnP) reads the mask grown by the depth over the surface it
+  /// continues (GrowRegionByDepth, within the diameter of the mask's median point), at most
+  /// this fraction of the mask box's longer side away: an eroded, cut or boxed mask still
+  /// gives the features near the object's edge. 0 = the mask as corrected.
+  double grow_fraction = 0.5;
   /// Seed of the plane fit's sampling (deterministic for a given frame).
   uint64_t seed = 1;
 

@@ -28,7 +28,7 @@ PoseScore ScoreRendering(const EvaluationGrid& grid, const RasterImage& rendered
   const bool has_support = options.depth_evidence && !grid.support.empty();
   // Segment ownership: first which segments the pose covers (after occlusion), then the
   // mask pixels of the others are left out of C, J and the residual.
-  const bool by_segment = options.depth_evidence && options.segment_own_fraction > 0.0 && !grid.segment.empty();
+  const bool by_segment = options.segment_own_fraction > 0.0 && !grid.segment.empty();
   std::vector<uint8_t> owned;
   if (by_segment) {
     std::vector<int> covered(grid.segment_pixels.size(), 0);
@@ -37,7 +37,9 @@ PoseScore ScoreRendering(const EvaluationGrid& grid, const RasterImage& rendered
       const float* d = grid.depth.ptr<float>(v);
       const float* r = rendered.depth.ptr<float>(v);
       for (int u = 0; u < grid.mask.cols; ++u) {
-        if (label[u] > 0 && r[u] > 0.0f && !IsOccluded(r[u], d[u], options)) ++covered[static_cast<size_t>(label[u])];
+        if (label[u] > 0 && r[u] > 0.0f && !(options.depth_evidence && IsOccluded(r[u], d[u], options))) {
+          ++covered[static_cast<size_t>(label[u])];
+        }
       }
     }
     owned.assign(covered.size(), 1);

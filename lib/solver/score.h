@@ -35,8 +35,8 @@ struct ScoreOptions {
   /// paper). The pipeline sets both per instance (ObservedRegion::surface_tolerance_m).
   bool depth_evidence = false;
   double surface_tolerance_m = 0.0;
-  /// Segment ownership (depth evidence, a mask of two depth segments or more: a merged or
-  /// boxed mask, segments.h): a pose owns the segments it covers at least this fraction of;
+  /// Segment ownership (a mask of two depth segments or more, EvaluationGrid::segment: a
+  /// merged or boxed mask, segments.h): a pose owns the segments it covers at least this fraction of;
   /// the mask pixels of the segments it does not own are another object's and count neither
   /// for nor against it. A pose that covers part of a segment must explain all of it.
   /// 0 = every mask pixel counts (as without segments).

@@ -176,4 +176,69 @@ DepthSegmentation SegmentByDepth(const Camera& camera, const cv::Mat& depth, con
   return result;
 }
 
+cv::Mat GrowRegionByDepth(const Camera& camera, const cv::Mat& depth, const cv::Mat& mask, const cv::Mat& support,
+                          double reach_m, int max_steps_px, const SegmentOptions& options) {
+  const std::string bad = options.Check();
+  if (!bad.empty()) G6D_THROW(bad);
+  if (depth.type() != CV_32F || mask.type() != CV_8U || depth.size() != mask.size() ||
+      (!support.empty() && (support.type() != CV_8U || support.size() != mask.size()))) {
+    G6D_THROW("GrowRegionByDepth: depth must be CV_32F, mask and support CV_8U, all of one size");
+  }
+  cv::Mat grown = mask > 0;
+  // The mask's median point: the centre of the reach.
+  std::vector<float> xs, ys, zs;
+  for (int v = 0; v < mask.rows; ++v) {
+    const uint8_t* m = grown.ptr<uint8_t>(v);
+    const float* d = depth.ptr<float>(v);
+    for (int u = 0; u < mask.cols; ++u) {
+      if (!m[u] || !(d[u] > 0.0f) || !std::isfinite(d[u])) continue;
+      const Eigen::Vector3d p = camera.Backproject(PixelCentre(u, v), d[u]);
+      xs.push_back(static_cast<float>(p.x()));
+      ys.push_back(static_cast<float>(p.y()));
+      zs.push_back(static_cast<float>(p.z()));
+    }
+  }
+  if (xs.empty() || max_steps_px <= 0) return grown;
+  auto median = [](std::vector<float>* values) {
+    auto middle = values->begin() + static_cast<std::ptrdiff_t>(values->size() / 2);
+    std::nth_element(values->begin(), middle, values->end());
+    return static_cast<double>(*middle);
+  };
+  const Eigen::Vector3d centre(median(&xs), median(&ys), median(&zs));
+  const double focal_px = std::min(camera.fx, camera.fy);
+  const double slope = std::tan(options.max_incidence_deg * M_PI / 180.0) / focal_px;
+  auto max_step_m = [&](double z) {
+    return options.noise_sigmas * std::sqrt(2.0) * options.sensor_noise_at_1m * z * z + z * slope;
+  };
+  auto usable = [&](int u, int v) {
+    const float z = depth.at<float>(v, u);
+    return z > 0.0f && std::isfinite(z) && (support.empty() || !support.at<uint8_t>(v, u));
+  };
+  // Breadth first, one ring of pixels per step.
+  std::vector<cv::Point> front;
+  for (int v = 0; v < mask.rows; ++v) {
+    for (int u = 0; u < mask.cols; ++u) {
+      if (grown.at<uint8_t>(v, u) && usable(u, v)) front.push_back(cv::Point(u, v));
+    }
+  }
+  const int du[4] = {-1, 1, 0, 0}, dv[4] = {0, 0, -1, 1};
+  for (int step = 0; step < max_steps_px && !front.empty(); ++step) {
+    std::vector<cv::Point> next;
+    for (const cv::Point& p : front) {
+      const float z = depth.at<float>(p.y, p.x);
+      for (int k = 0; k < 4; ++k) {
+        const int u = p.x + du[k], v = p.y + dv[k];
+        if (u < 0 || v < 0 || u >= mask.cols || v >= mask.rows || grown.at<uint8_t>(v, u) || !usable(u, v)) continue;
+        const float zq = depth.at<float>(v, u);
+        if (std::abs(zq - z) > max_step_m(std::max(z, zq))) continue;
+        if ((camera.Backproject(PixelCentre(u, v), zq) - centre).norm() > reach_m) continue;
+        grown.at<uint8_t>(v, u) = 255;
+        next.push_back(cv::Point(u, v));
+      }
+    }
+    front.swap(next);
+  }
+  return grown;
+}
+
 }  // namespace g6d

@@ -80,4 +80,13 @@ struct DepthSegmentation {
 DepthSegmentation SegmentByDepth(const Camera& camera, const cv::Mat& depth, const cv::Mat& region,
                                  const SegmentOptions& options);
 
+/// The region grown by the depth: `mask` (CV_8U, non-zero = in) and the pixels joined to it
+/// through 4-neighbours whose depths differ by no more than SegmentByDepth's step (the same
+/// surface), that are not on the support (`support`: CV_8U, non-zero = support; may be
+/// empty) and whose points lie within `reach_m` of the mask's median point: the object a
+/// cautious (eroded) or partial (cut) mask missed, up to where the object's surface ends in
+/// a depth edge. At most `max_steps_px` pixels away from the mask. CV_8U 0/255.
+cv::Mat GrowRegionByDepth(const Camera& camera, const cv::Mat& depth, const cv::Mat& mask, const cv::Mat& support,
+                          double reach_m, int max_steps_px, const SegmentOptions& options);
+
 }  // namespace g6d
