@@ -1,10 +1,13 @@
 // g6d-bench-dataset: runs EstimatePose directly (no LCM) on every target instance of a
 // BOP dataset with its GT visible mask (or that mask degraded, --degrade-masks); writes the
 // BOP results CSV and prints ADD(-S) recall per object and after each stage, and latency
-// percentiles per stage.
+// percentiles per stage. With --identity unknown the mask's object is not given: every
+// object of the dataset is a candidate (EstimatePoseOfUnknownObject).
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <map>
+#include <numeric>
 #include <string>
 #include <vector>
 
@@ -21,6 +24,7 @@
 #include "eval/mask_degrade.h"
 #include "eval/metrics.h"
 #include "mesh/mesh.h"
+#include "solver/identify.h"
 #include "solver/pipeline.h"
 #include "templates/cache.h"
 #include "bench_objects.h"
@@ -42,7 +46,28 @@ struct Tally {
   int oracle_pnp = 0, oracle_kept = 0;  // some PnP pose / some kept pose is correct
   int oracle_pnp_rot = 0, oracle_kept_rot = 0;  // some PnP / kept pose within 15 deg of GT rotation
   int search_failures = 0, score_failures = 0;  // misses with S(GT) < S_A / S(GT) >= S_A (--score-gt)
+  int right_identity = 0;                        // --identity unknown: the true object was chosen
+  std::map<std::string, int> chosen_instead;     // --identity unknown: wrong choices by object id
 };
+
+double Mean(const std::vector<double>& values) {
+  return values.empty() ? 0.0 : std::accumulate(values.begin(), values.end(), 0.0) / values.size();
+}
+
+// Every <id>.g6dcache in `dir`, sorted by name (--extra-candidates).
+std::vector<g6d::TemplateBank> ReadCacheFolder(const std::string& dir) {
+  std::vector<std::string> paths;
+  std::error_code error;
+  for (const auto& entry : std::filesystem::directory_iterator(dir, error)) {
+    if (entry.path().extension() == ".g6dcache") paths.push_back(entry.path().string());
+  }
+  if (error) G6D_THROW("--extra-candidates: cannot list '" << dir << "': " << error.message());
+  if (paths.empty()) G6D_THROW("--extra-candidates: no .g6dcache file in '" << dir << "'");
+  std::sort(paths.begin(), paths.end());
+  std::vector<g6d::TemplateBank> banks;
+  for (const std::string& path : paths) banks.push_back(g6d::ReadTemplateCache(path));
+  return banks;
+}
 
 // "GT visible" or the degradation, e.g. "erode 6 px" or "cut 0.30, seed 1", for the report.
 std::string MaskLabel(const g6d::MaskDegradeOptions& degrade) {
@@ -148,6 +173,20 @@ int main(int argc, char** argv) {
   app.add_option("--degrade-cut-fraction", degrade.cut_fraction,
                  "cut: fraction of the mask's pixels removed, in [0, 1)")
       ->capture_default_str();
+  // The unknown-identity solve (issue 22, item 5).
+  std::string identity = "given", extra_candidates_dir;
+  bool no_prescreen = false;
+  app.add_option("--identity", identity,
+                 "given: the solver is told each mask's object; unknown: every object of the dataset is a "
+                 "candidate, the lowest S_A wins, and a wrong identity counts as a miss")
+      ->check(CLI::IsMember({"given", "unknown"}))
+      ->capture_default_str();
+  app.add_option("--extra-candidates", extra_candidates_dir,
+                 "--identity unknown: every .g6dcache in this folder is a candidate too (objects not in the "
+                 "dataset; choosing one is a wrong identity)");
+  app.add_flag("--no-prescreen", no_prescreen,
+               "--identity unknown: solve every candidate (no ruling out of objects shorter than the mask's depth "
+               "extent)");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -201,6 +240,12 @@ int main(int argc, char** argv) {
     if (const std::string problem = degrade.Check(); !problem.empty())
       G6D_THROW("bad --degrade-* options: " << problem);
     const bool degrading = degrade.mode != g6d::MaskDegradation::kNone;
+    const bool unknown_identity = identity == "unknown";
+    if (!unknown_identity && (!extra_candidates_dir.empty() || no_prescreen)) {
+      G6D_THROW("--extra-candidates and --no-prescreen need --identity unknown");
+    }
+    g6d::IdentifyOptions identify_options;
+    identify_options.prescreen = !no_prescreen;
     std::FILE* records = nullptr;
     if (!records_csv.empty()) {
       records = std::fopen(records_csv.c_str(), "w");
@@ -209,7 +254,10 @@ int main(int argc, char** argv) {
                    "scene_id,im_id,obj_id,gt_idx,success,score,confidence,iou,depth_residual,error_d,correct,total_ms,"
                    "truncated,ambiguous,runner_up_gap,appearance_valid,appearance_agreement,appearance_changed,"
                    "gt_score,gt_iou,gt_depth_residual,gt_occluded_px,sets_tried,pnp_hypotheses,pnp_merged,kept,"
-                   "icp_iterations,answer_set_rank,answer_quality_ratio\n");
+                   "icp_iterations,answer_set_rank,answer_quality_ratio%s\n",
+                   unknown_identity ? ",chosen_id,right_identity,true_object_score,best_other_id,best_other_score,"
+                                      "candidates_solved,screened_out,identify_ms"
+                                    : "");
     }
     int seen = 0;
     g6d::ThreadPool pool(std::max(1, threads));
@@ -222,6 +270,26 @@ int main(int argc, char** argv) {
     std::vector<g6d::BopEstimate> estimates;
     std::map<std::pair<int, int>, double> image_time_s;
     int done = 0, cut_short = 0;
+    // --identity unknown: every object the targets name is loaded up front and is a
+    // candidate for every instance, with the --extra-candidates after them.
+    std::vector<g6d::TemplateBank> extra_banks;
+    std::vector<const g6d::TemplateBank*> candidates;
+    std::map<std::string, int> obj_id_of;  // bank object id -> BOP obj_id (dataset objects)
+    std::vector<double> candidate_ms, solved_candidate_ms, identify_ms;
+    int candidate_count = 0, screened_count = 0, true_screened = 0;
+    if (unknown_identity) {
+      for (const g6d::BopTarget& target : dataset.targets) {
+        if (!objects.count(target.obj_id)) {
+          objects.emplace(target.obj_id, g6d::bench::LoadBenchObject(dataset, target.obj_id, caches_dir, adds_ids));
+        }
+      }
+      for (const auto& [obj_id, object] : objects) {
+        candidates.push_back(&object.bank);
+        obj_id_of[object.bank.object_id] = obj_id;
+      }
+      if (!extra_candidates_dir.empty()) extra_banks = ReadCacheFolder(extra_candidates_dir);
+      for (const g6d::TemplateBank& bank : extra_banks) candidates.push_back(&bank);
+    }
     // Degraded masks: IoU with the GT visible mask, how many were merged / came out empty.
     double mask_iou_sum = 0.0;
     int masks_merged = 0, masks_empty = 0;
@@ -270,7 +338,26 @@ int main(int argc, char** argv) {
         }
         mask_iou_sum += mask_iou;
         const g6d::Instance instance{object.bank.object_id, solver_mask};
-        const g6d::PoseResult result = g6d::EstimatePose(frame, instance, object.bank, options, &pool);
+        g6d::IdentifiedPose identified;
+        if (unknown_identity) {
+          identified = g6d::EstimatePoseOfUnknownObject(frame, solver_mask, candidates, options, identify_options, &pool);
+          for (const g6d::IdentityCandidate& candidate : identified.candidates) {
+            candidate_ms.push_back(candidate.ms);
+            if (!candidate.screened_out) solved_candidate_ms.push_back(candidate.ms);
+            ++candidate_count;
+            screened_count += candidate.screened_out ? 1 : 0;
+            // The pre-screen must never rule out the object the mask shows.
+            if (candidate.screened_out && candidate.object_id == object.bank.object_id) ++true_screened;
+          }
+          identify_ms.push_back(identified.total_ms);
+        } else {
+          identified.result = g6d::EstimatePose(frame, instance, object.bank, options, &pool);
+          identified.object_id = object.bank.object_id;
+        }
+        const g6d::PoseResult& result = identified.result;
+        // A wrong identity is a miss at every stage: its poses are another object's.
+        const bool right_identity = identified.object_id == object.bank.object_id;
+        const bool solved = result.success && right_identity;
         const g6d::StageReport& s = result.stages;
         g6d::PoseScore gt_score;
         bool has_gt_score = false;
@@ -284,8 +371,13 @@ int main(int argc, char** argv) {
         };
         Tally& tally = tallies[target.obj_id];
         ++tally.total;
+        if (right_identity) {
+          ++tally.right_identity;
+        } else {
+          ++tally.chosen_instead[identified.object_id.empty() ? "(none)" : identified.object_id];
+        }
         double final_error = -1.0;
-        if (result.success) {
+        if (solved) {
           const Eigen::Isometry3d stage_poses[5] = {s.seed_pose, s.pnp_pose, s.observable_pose, s.icp_pose, result.cam_from_object};
           for (int k = 0; k < 5; ++k) {
             const double e = error(stage_poses[k]);
@@ -310,15 +402,20 @@ int main(int argc, char** argv) {
             tally.oracle_pnp_rot += any_rotation(s.pnp_poses);
             tally.oracle_kept_rot += any_rotation(s.kept_poses);
           }
+        }
+        const bool has_bop_id = !unknown_identity || obj_id_of.count(identified.object_id) > 0;
+        if (result.success && has_bop_id) {
+          // The answer as the BOP results CSV holds it: under the object it was given as
+          // (a wrong identity's answer too; one of --extra-candidates has no BOP id here).
           g6d::BopEstimate estimate;
           estimate.scene_id = target.scene_id;
           estimate.im_id = target.im_id;
-          estimate.obj_id = target.obj_id;
+          estimate.obj_id = unknown_identity ? obj_id_of.at(identified.object_id) : target.obj_id;
           estimate.score = result.confidence;
           estimate.cam_from_object = result.cam_from_object;
           estimates.push_back(estimate);
         }
-        const bool correct = result.success && g6d::IsAddCorrect(final_error, object.diameter_m);
+        const bool correct = solved && g6d::IsAddCorrect(final_error, object.diameter_m);
         if (has_gt_score && !correct) {
           // A miss: was a pose at least as good as the GT by S found (score failure) or not
           // (search failure)?
@@ -328,7 +425,7 @@ int main(int argc, char** argv) {
           std::fprintf(records, "%d,%d,%d,%zu,%d,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%.3f,%d,", target.scene_id, target.im_id,
                        target.obj_id, gt_idx, result.success ? 1 : 0, result.score, result.confidence,
                        result.details.iou, result.details.depth_residual,
-                       result.success ? final_error / object.diameter_m : -1.0, correct ? 1 : 0, s.total_ms,
+                       solved ? final_error / object.diameter_m : -1.0, correct ? 1 : 0, s.total_ms,
                        result.truncated ? 1 : 0);
           std::fprintf(records, "%d,%.6f,%d,%.6f,%d,", result.ambiguous ? 1 : 0,
                        result.has_runner_up ? result.runner_up_score - result.score : -1.0,
@@ -339,10 +436,29 @@ int main(int argc, char** argv) {
           } else {
             std::fprintf(records, ",,,,");
           }
-          std::fprintf(records, "%d,%d,%d,%d,%d,%d,%.4f\n", s.sets_tried, s.pnp_hypotheses, s.pnp_merged, s.kept_hypotheses,
+          std::fprintf(records, "%d,%d,%d,%d,%d,%d,%.4f", s.sets_tried, s.pnp_hypotheses, s.pnp_merged, s.kept_hypotheses,
                        s.icp_iterations, s.answer_set_rank, s.answer_quality_ratio);
+          if (unknown_identity) {
+            // The true object's S and the best other object's: the margin identity was decided by.
+            double true_score = 2.0, other_score = 2.0;
+            std::string other_id;
+            int solved_count = 0;
+            for (const g6d::IdentityCandidate& candidate : identified.candidates) {
+              solved_count += candidate.screened_out ? 0 : 1;
+              if (candidate.object_id == object.bank.object_id) {
+                true_score = candidate.score;
+              } else if (candidate.success && candidate.score < other_score) {
+                other_score = candidate.score;
+                other_id = candidate.object_id;
+              }
+            }
+            std::fprintf(records, ",%s,%d,%.6f,%s,%.6f,%d,%d,%.3f", identified.object_id.c_str(), right_identity ? 1 : 0,
+                         true_score, other_id.c_str(), other_score, solved_count, identified.screened_out,
+                         identified.total_ms);
+          }
+          std::fprintf(records, "\n");
         }
-        image_time_s[{target.scene_id, target.im_id}] += s.total_ms / 1000.0;
+        image_time_s[{target.scene_id, target.im_id}] += (unknown_identity ? identified.total_ms : s.total_ms) / 1000.0;
         for (const g6d::StageTime& stage : g6d::StageTimes(s)) times[stage.name].push_back(stage.ms);
         counts["sets tried"].push_back(s.sets_tried);
         counts["PnP poses"].push_back(s.pnp_hypotheses);
@@ -358,6 +474,15 @@ int main(int argc, char** argv) {
                      object.symmetric ? "-S" : "",
                      final_error * 1000, final_error / object.diameter_m, s.total_ms);
         if (degrading) std::fprintf(stderr, " | mask IoU %.2f", mask_iou);
+        if (unknown_identity) {
+          std::fprintf(stderr, " | identity %s%s", identified.object_id.empty() ? "(none)" : identified.object_id.c_str(),
+                       right_identity ? "" : " WRONG");
+          if (!identified.runner_up_id.empty()) {
+            std::fprintf(stderr, ", runner-up %s S %.3f", identified.runner_up_id.c_str(), identified.runner_up_score);
+          }
+          std::fprintf(stderr, ", %zu candidates (%d screened out) %.0f ms", identified.candidates.size(),
+                       identified.screened_out, identified.total_ms);
+        }
         if (has_gt_score) {
           std::fprintf(stderr, " | S(GT) %.3f (1-J %.3f, depth %.3f, occluded %d px)", gt_score.s, 1.0 - gt_score.iou,
                        options.score.lambda_s * gt_score.depth_residual, gt_score.occluded_pixels);
@@ -371,8 +496,12 @@ int main(int argc, char** argv) {
     for (g6d::BopEstimate& e : estimates) e.time_s = image_time_s[{e.scene_id, e.im_id}];
     if (!out_csv.empty()) g6d::WriteBopCsv(out_csv, estimates);
 
-    std::printf("\nADD(-S)@0.1d recall (%%), K = %d, %d threads, masks: %s\n", hypotheses, threads,
+    std::printf("\nADD(-S)@0.1d recall (%%), K = %d, %d threads, masks: %s", hypotheses, threads,
                 MaskLabel(degrade).c_str());
+    if (unknown_identity) {
+      std::printf(", identity unknown (%zu candidates; a wrong identity is a miss)", candidates.size());
+    }
+    std::printf("\n");
     std::printf("| object | n | seed | +PnP | +observable | +ICP | +MHPO (final) |\n|---|---|---|---|---|---|---|\n");
     Tally all;
     for (const auto& [obj_id, tally] : tallies) {
@@ -421,7 +550,32 @@ int main(int argc, char** argv) {
       std::printf(", %d merged with a touching neighbour", masks_merged);
     std::printf("\n");
     if (budget_ms > 0.0) std::printf("budget %.0f ms per instance: %d of %d answers cut short\n", budget_ms, cut_short, done);
-    std::printf("\nlatency per instance (ms)\n| stage | p50 | p95 |\n|---|---|---|\n");
+    if (unknown_identity) {
+      std::printf("\nidentity unknown: %zu candidates per instance (%zu of the dataset, %zu extra), pre-screen %s\n",
+                  candidates.size(), candidates.size() - extra_banks.size(), extra_banks.size(),
+                  identify_options.prescreen ? "on" : "off");
+      std::printf("| object | n | right identity (%%) | chosen instead |\n|---|---|---|---|\n");
+      int right = 0;
+      for (const auto& [obj_id, tally] : tallies) {
+        std::string instead;
+        for (const auto& [id, count] : tally.chosen_instead) {
+          instead += (instead.empty() ? "" : ", ") + id + " x" + std::to_string(count);
+        }
+        std::printf("| %s | %d | %.1f | %s |\n", g6d::BopObjectName(obj_id).c_str(), tally.total,
+                    100.0 * tally.right_identity / std::max(1, tally.total), instead.c_str());
+        right += tally.right_identity;
+      }
+      std::printf("| **identity** | %d | %.1f | |\n", all.total, 100.0 * right / std::max(1, all.total));
+      std::printf("pre-screen: %d of %d candidate solves skipped; the true object screened out %d times\n",
+                  screened_count, candidate_count, true_screened);
+      std::printf("time per candidate (ms): mean %.1f, p50 %.1f; per solved candidate mean %.1f, p50 %.1f; per "
+                  "instance (all candidates) mean %.1f, p50 %.1f, p95 %.1f\n",
+                  Mean(candidate_ms), Percentile(candidate_ms, 0.5), Mean(solved_candidate_ms),
+                  Percentile(solved_candidate_ms, 0.5), Mean(identify_ms), Percentile(identify_ms, 0.5),
+                  Percentile(identify_ms, 0.95));
+    }
+    std::printf("\nlatency per instance (ms)%s\n| stage | p50 | p95 |\n|---|---|---|\n",
+                unknown_identity ? ", the chosen object's solve" : "");
     for (const g6d::StageTime& stage : g6d::StageTimes(g6d::StageReport())) {
       std::printf("| %s | %.1f | %.1f |\n", stage.name, Percentile(times[stage.name], 0.5), Percentile(times[stage.name], 0.95));
     }

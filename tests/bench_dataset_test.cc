@@ -1,6 +1,7 @@
 // g6d-bench-dataset as a user runs it: a BOP folder written by the test, caches built by
 // the real g6d-build-templates, a targets file of the user's own (--targets), the GT-score
 // diagnostic (--score-gt) and the per-instance records CSV.
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -101,6 +102,36 @@ TEST_F(BenchDatasetTest, BadTargetsFileAndContradictingFlagsAreErrors) {
                                                     "/caches --allow-border-masks --reject-border-masks");
   EXPECT_EQ(both.exit_code, 2);
   EXPECT_NE(both.output.find("contradict"), std::string::npos) << both.output;
+}
+
+// --identity unknown: both boxes are candidates for every instance; the summary says how
+// often the right one was chosen and what a candidate costs, the records say who won.
+TEST_F(BenchDatasetTest, UnknownIdentityChoosesAmongTheDatasetsObjects) {
+  ASSERT_TRUE(std::filesystem::exists(kBench)) << kBench;
+  const std::string records = *dir_ + "/identity.csv";
+  const test::CommandResult run =
+      test::RunCommand(kBench + " --dataset " + *dir_ + "/tiny --caches " + *dir_ + "/caches --identity unknown" +
+                       " --records " + records + " --hypotheses 4");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("identity unknown (2 candidates; a wrong identity is a miss)"), std::string::npos)
+      << run.output;
+  EXPECT_NE(run.output.find("| **identity** | 3 | 100.0 | |"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("time per candidate (ms)"), std::string::npos) << run.output;
+  const std::vector<std::vector<std::string>> rows = ReadCsv(records);
+  ASSERT_EQ(rows.size(), 4u) << "one header and three instances";
+  const std::vector<std::string>& header = rows[0];
+  const size_t chosen = std::find(header.begin(), header.end(), "chosen_id") - header.begin();
+  const size_t obj_id = std::find(header.begin(), header.end(), "obj_id") - header.begin();
+  ASSERT_LT(chosen, header.size());
+  for (size_t row = 1; row < rows.size(); ++row) {
+    ASSERT_EQ(rows[row].size(), header.size());
+    EXPECT_EQ(rows[row][chosen], BopObjectName(std::stoi(rows[row][obj_id])));
+  }
+
+  const test::CommandResult given_only = test::RunCommand(kBench + " --dataset " + *dir_ + "/tiny --caches " + *dir_ +
+                                                          "/caches --no-prescreen");
+  EXPECT_EQ(given_only.exit_code, 2);
+  EXPECT_NE(given_only.output.find("need --identity unknown"), std::string::npos) << given_only.output;
 }
 
 }  // namespace

@@ -173,5 +173,45 @@ TEST(Tools, SolveOnAnLmoFrame) {
   EXPECT_THAT(bad.output, HasSubstr("mask is empty"));
 }
 
+// The same can with its identity unknown: the ape (obj_000001) and the can are candidates;
+// the can is chosen and the JSON says so, with every candidate's S and time.
+TEST(Tools, SolveWithCandidatesChoosesTheObject) {
+  G6D_REQUIRE_SHARED_DATA("lmo/test/000002/rgb/000008.png");
+  ASSERT_TRUE(std::filesystem::exists(kSolve)) << kSolve;
+  const std::string dir = test::TempDir("tools_solve_candidates");
+  const std::string lmo = test::SharedDataPath("lmo");
+  std::filesystem::create_directories(dir + "/caches");
+  for (const char* id : {"obj_000001", "obj_000005"}) {
+    const RunResult build =
+        RunCommand(kBuildTemplates + " --mesh " + lmo + "/models/" + id + ".ply --units mm --object-id " + id +
+                   " --out " + dir + "/caches/" + id + ".g6dcache --views 72 --threads 2");
+    ASSERT_EQ(build.exit_code, 0) << build.output;
+  }
+  const std::string scene = lmo + "/test/000002";
+  const std::string common = kSolve + " --rgb " + scene + "/rgb/000008.png --depth " + scene +
+                             "/depth/000008.png --depth-scale 1 --K 572.4114,573.57043,325.2611,242.04899 --mask " +
+                             scene + "/mask_visib/000008_000001.png";
+  const RunResult solve = RunCommand(common + " --cache " + dir + "/caches --candidates all --json " + dir + "/pose.json");
+  ASSERT_EQ(solve.exit_code, 0) << solve.output;
+  EXPECT_THAT(solve.output, HasSubstr("object      obj_000005"));
+  EXPECT_THAT(solve.output, HasSubstr("identity    2 candidates"));
+  std::ifstream json_file(dir + "/pose.json");
+  const nlohmann::json pose = nlohmann::json::parse(json_file);
+  EXPECT_EQ(pose.at("object_id"), "obj_000005");
+  const nlohmann::json& identity = pose.at("identity");
+  EXPECT_EQ(identity.at("chosen"), "obj_000005");
+  ASSERT_EQ(identity.at("candidates").size(), 2u);
+  EXPECT_EQ(identity.at("candidates")[0].at("object_id"), "obj_000001");
+  EXPECT_EQ(identity.at("candidates")[1].at("score").get<double>(), pose.at("score").get<double>());
+
+  // Two caches and no --candidates, and an id without a cache: errors that say what to do.
+  const RunResult two = RunCommand(common + " --cache " + dir + "/caches");
+  EXPECT_EQ(two.exit_code, 2) << two.output;
+  EXPECT_THAT(two.output, HasSubstr("pass --candidates"));
+  const RunResult unknown = RunCommand(common + " --cache " + dir + "/caches --candidates obj_000005,obj_000009");
+  EXPECT_EQ(unknown.exit_code, 2) << unknown.output;
+  EXPECT_THAT(unknown.output, HasSubstr("no cache given for object 'obj_000009'"));
+}
+
 }  // namespace
 }  // namespace g6d

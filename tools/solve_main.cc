@@ -1,6 +1,9 @@
 // g6d-solve: one frame from image files -> pose, S_A, confidence and the stage report.
-// No LCM: the same EstimatePose the service runs.
+// No LCM: the same EstimatePose the service runs. With --candidates the mask's object is
+// not known: each candidate cache is tried and the lowest S_A wins.
+#include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <sstream>
@@ -15,6 +18,7 @@
 #include "core/error.h"
 #include "core/executor.h"
 #include "render/raster.h"
+#include "solver/identify.h"
 #include "solver/pipeline.h"
 #include "templates/cache.h"
 
@@ -41,6 +45,49 @@ cv::Mat ReadImage(const std::string& path, int flags, const std::string& what) {
   return image;
 }
 
+// The banks of --cache: files, and folders of <id>.g6dcache files (sorted by name).
+std::vector<g6d::TemplateBank> ReadCaches(const std::vector<std::string>& paths) {
+  std::vector<g6d::TemplateBank> banks;
+  for (const std::string& path : paths) {
+    if (!std::filesystem::is_directory(path)) {
+      banks.push_back(g6d::ReadTemplateCache(path));
+      continue;
+    }
+    std::vector<std::string> files;
+    for (const auto& entry : std::filesystem::directory_iterator(path)) {
+      if (entry.path().extension() == ".g6dcache") files.push_back(entry.path().string());
+    }
+    if (files.empty()) G6D_THROW("--cache: no .g6dcache file in the folder '" << path << "'");
+    std::sort(files.begin(), files.end());
+    for (const std::string& file : files) banks.push_back(g6d::ReadTemplateCache(file));
+  }
+  return banks;
+}
+
+// The candidates --candidates names among `banks`: "all", or object ids separated by commas.
+std::vector<const g6d::TemplateBank*> SelectCandidates(const std::vector<g6d::TemplateBank>& banks,
+                                                       const std::string& text) {
+  std::vector<const g6d::TemplateBank*> selected;
+  if (text == "all") {
+    for (const g6d::TemplateBank& bank : banks) selected.push_back(&bank);
+    return selected;
+  }
+  std::stringstream stream(text);
+  std::string id;
+  while (std::getline(stream, id, ',')) {
+    const auto found = std::find_if(banks.begin(), banks.end(),
+                                    [&](const g6d::TemplateBank& bank) { return bank.object_id == id; });
+    if (found == banks.end()) {
+      std::string known;
+      for (const g6d::TemplateBank& bank : banks) known += (known.empty() ? "" : ", ") + bank.object_id;
+      G6D_THROW("--candidates: no cache given for object '" << id << "' (the caches hold: " << known << ")");
+    }
+    selected.push_back(&*found);
+  }
+  if (selected.empty()) G6D_THROW("--candidates: no object id in '" << text << "' (give IDs or 'all')");
+  return selected;
+}
+
 // Draws the model's projected silhouette contour (green) and its axes (x red, y green, z blue).
 void DrawOverlay(const g6d::TemplateBank& bank, const g6d::Camera& camera, const Eigen::Isometry3d& pose,
                  cv::Mat* bgr) {
@@ -65,11 +112,22 @@ void DrawOverlay(const g6d::TemplateBank& bank, const g6d::Camera& camera, const
 
 int main(int argc, char** argv) {
   CLI::App app{"g6d-solve: estimate one object's 6D pose from RGB-D + mask files"};
-  std::string cache_path, rgb_path, depth_path, mask_path, k_text, overlay_path, json_path;
+  std::string rgb_path, depth_path, mask_path, k_text, overlay_path, json_path, candidates_text;
+  std::vector<std::string> cache_paths;
   double depth_scale_mm = 1.0;
   int hypotheses = g6d::SolverOptions().num_hypotheses, threads = 2;
   bool no_mhpo = false;
-  app.add_option("--cache", cache_path, "template cache file (g6d-build-templates)")->required();
+  app.add_option("--cache", cache_paths,
+                 "template cache file (g6d-build-templates), or a folder of them; repeat it to give several "
+                 "(with --candidates)")
+      ->required();
+  app.add_option("--candidates", candidates_text,
+                 "the mask's object is not known: try these objects (IDs separated by commas, or 'all' for every "
+                 "cache given); the lowest S_A wins, and the runner-up object is reported");
+  bool no_prescreen = false;
+  app.add_flag("--no-prescreen", no_prescreen,
+               "with --candidates: solve every candidate (do not rule out objects shorter than the mask's depth "
+               "extent)");
   app.add_option("--rgb", rgb_path, "colour image (PNG/JPEG)")->required();
   app.add_option("--depth", depth_path, "16-bit depth PNG")->required();
   app.add_option("--depth-scale", depth_scale_mm, "millimetres per depth unit (BOP depth_scale)")->capture_default_str();
@@ -99,7 +157,15 @@ int main(int argc, char** argv) {
 
   try {
     const std::vector<double> k = ParseList(k_text, 4, "--K");
-    const g6d::TemplateBank bank = g6d::ReadTemplateCache(cache_path);
+    const std::vector<g6d::TemplateBank> banks = ReadCaches(cache_paths);
+    const bool unknown_identity = !candidates_text.empty();
+    if (!unknown_identity && banks.size() != 1) {
+      G6D_THROW(banks.size() << " caches given: with several, pass --candidates all (or ID1,ID2,...) to choose the "
+                             "object among them");
+    }
+    if (!unknown_identity && no_prescreen) G6D_THROW("--no-prescreen needs --candidates");
+    const std::vector<const g6d::TemplateBank*> candidates =
+        unknown_identity ? SelectCandidates(banks, candidates_text) : std::vector<const g6d::TemplateBank*>{&banks[0]};
     const cv::Mat bgr = ReadImage(rgb_path, cv::IMREAD_COLOR, "--rgb");
     const cv::Mat depth_raw = ReadImage(depth_path, cv::IMREAD_ANYDEPTH, "--depth");
     const cv::Mat mask_raw = ReadImage(mask_path, cv::IMREAD_GRAYSCALE, "--mask");
@@ -108,7 +174,6 @@ int main(int argc, char** argv) {
     frame.camera = {k[0], k[1], k[2], k[3], bgr.cols, bgr.rows};
     cv::cvtColor(bgr, frame.rgb, cv::COLOR_BGR2RGB);
     depth_raw.convertTo(frame.depth, CV_32F, depth_scale_mm / 1000.0);
-    g6d::Instance instance{bank.object_id, mask_raw};
 
     g6d::SolverOptions options;
     options.num_hypotheses = hypotheses;
@@ -119,11 +184,43 @@ int main(int argc, char** argv) {
     if (allow_border && reject_border) G6D_THROW("--allow-border-masks and --reject-border-masks contradict each other");
     options.reject_border_masks = reject_border;
     g6d::ThreadPool pool(std::max(1, threads));
-    const g6d::PoseResult result = g6d::EstimatePose(frame, instance, bank, options, &pool);
+    g6d::IdentifiedPose identified;
+    if (unknown_identity) {
+      g6d::IdentifyOptions identify_options;
+      identify_options.prescreen = !no_prescreen;
+      identified = g6d::EstimatePoseOfUnknownObject(frame, mask_raw, candidates, options, identify_options, &pool);
+    } else {
+      identified.result = g6d::EstimatePose(frame, {banks[0].object_id, mask_raw}, banks[0], options, &pool);
+      identified.object_id = banks[0].object_id;
+    }
+    const g6d::PoseResult& result = identified.result;
+    // The chosen object's bank (the overlay draws it); null when no candidate was solved.
+    const g6d::TemplateBank* chosen = nullptr;
+    for (const g6d::TemplateBank* bank : candidates) {
+      if (bank->object_id == identified.object_id) chosen = bank;
+    }
     const g6d::StageReport& s = result.stages;
     const Eigen::Quaterniond q(result.cam_from_object.linear());
     const Eigen::Vector3d t = result.cam_from_object.translation();
-    std::printf("object      %s\n", bank.object_id.c_str());
+    std::printf("object      %s\n", chosen != nullptr ? chosen->object_id.c_str() : "(none)");
+    if (unknown_identity) {
+      std::printf("identity    %zu candidates in %.1f ms", identified.candidates.size(), identified.total_ms);
+      if (chosen != nullptr) std::printf(": %s S %.4f", chosen->object_id.c_str(), result.score);
+      if (!identified.runner_up_id.empty()) {
+        std::printf(", runner-up %s S %.4f (+%.4f)", identified.runner_up_id.c_str(), identified.runner_up_score,
+                    identified.runner_up_score - result.score);
+      }
+      if (identified.screened_out > 0) std::printf(", %d screened out", identified.screened_out);
+      std::printf("\n");
+      for (const g6d::IdentityCandidate& candidate : identified.candidates) {
+        std::printf("  candidate %-14s %7.1f ms  ", candidate.object_id.c_str(), candidate.ms);
+        if (candidate.success) {
+          std::printf("S %.4f\n", candidate.score);
+        } else {
+          std::printf("%s\n", candidate.message.c_str());
+        }
+      }
+    }
     std::printf("status      %s (%s)\n", result.success ? "ok" : "failed", g6d::TerminationName(result.termination));
     if (!result.success) std::printf("reason      %s\n", result.message.c_str());
     if (result.truncated) std::printf("truncated   the mask touches the image border: the object is cut off\n");
@@ -163,7 +260,7 @@ int main(int argc, char** argv) {
     if (result.cut_short) std::printf("cut short   %s\n", result.message.c_str());
     if (!overlay_path.empty()) {
       cv::Mat overlay = bgr.clone();
-      if (result.success) DrawOverlay(bank, frame.camera, result.cam_from_object, &overlay);
+      if (result.success && chosen != nullptr) DrawOverlay(*chosen, frame.camera, result.cam_from_object, &overlay);
       if (!cv::imwrite(overlay_path, overlay)) G6D_THROW("--overlay: cannot write '" << overlay_path << "'");
       std::printf("overlay     %s\n", overlay_path.c_str());
     }
@@ -175,7 +272,26 @@ int main(int argc, char** argv) {
     }
     if (!json_path.empty()) {
       nlohmann::json j;
-      j["object_id"] = bank.object_id;
+      j["object_id"] = chosen != nullptr ? chosen->object_id : "";
+      if (unknown_identity) {
+        nlohmann::json tried = nlohmann::json::array();
+        for (const g6d::IdentityCandidate& candidate : identified.candidates) {
+          nlohmann::json entry = {{"object_id", candidate.object_id}, {"success", candidate.success},
+                                  {"screened_out", candidate.screened_out}, {"ms", candidate.ms},
+                                  {"message", candidate.message}, {"diameter_m", candidate.diameter_m}};
+          if (candidate.success) entry["score"] = candidate.score;
+          if (candidate.extent_m > 0.0) entry["mask_extent_m"] = candidate.extent_m;
+          tried.push_back(entry);
+        }
+        j["identity"] = {{"chosen", identified.object_id},
+                         {"score", result.success ? nlohmann::json(result.score) : nlohmann::json()},
+                         {"runner_up", identified.runner_up_id},
+                         {"runner_up_score", identified.runner_up_id.empty() ? nlohmann::json()
+                                                                            : nlohmann::json(identified.runner_up_score)},
+                         {"screened_out", identified.screened_out},
+                         {"total_ms", identified.total_ms},
+                         {"candidates", tried}};
+      }
       j["success"] = result.success;
       j["termination"] = g6d::TerminationName(result.termination);
       j["message"] = result.message;
