@@ -71,6 +71,7 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
   }
   observation->observed = std::make_unique<PointCloudIndex>(std::move(observed));
   const cv::Mat& support = observation->region.support;
+  const cv::Mat& unsure = observation->region.unsure;
   DepthSegmentation segments;
   const bool by_segment = options.mask_trust == MaskTrust::kDepth && options.score.segment_own_fraction > 0.0;
   if (by_segment) {
@@ -92,7 +93,8 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
     search.z_m = z_m;
     return search;
   };
-  observation->search_regions.push_back(search_region(mask, observation->z_m));
+  // The search leaves out what the depth cannot judge at the mask's edge.
+  observation->search_regions.push_back(search_region(unsure.empty() ? mask : mask & ~unsure, observation->z_m));
   if (by_segment && options.max_search_regions > 0 && segments.segments.size() >= 2) {
     // A region wider than the object can reach holds more than the object: its large
     // segments that the object could be are searched alone too.
@@ -113,8 +115,10 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
       }
     }
   }
-  observation->selection_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.selection_grid, support, segmentation);
-  observation->refine_grid = MakeEvaluationGrid(frame.camera, mask, depth, options.refine_grid, support, segmentation);
+  observation->selection_grid =
+      MakeEvaluationGrid(frame.camera, mask, depth, options.selection_grid, support, segmentation, unsure);
+  observation->refine_grid =
+      MakeEvaluationGrid(frame.camera, mask, depth, options.refine_grid, support, segmentation, unsure);
   return "";
 }
 

@@ -142,14 +142,18 @@ struct HypothesisState {
 // depth segment (EvaluationGrid::segment): the mask goes on into another object there, so
 // the observed boundary that the contour should lie on is the depth edge, which the mask's
 // distance field does not know. Such contour points pull nowhere.
+// The same where the mask goes on into pixels the depth cannot judge (EvaluationGrid::
+// unsure): the mask's edge there says nothing of the object's.
 bool CrossesIntoAnotherSegment(const EvaluationGrid& grid, const cv::Mat& rendered, int u, int v) {
-  if (grid.segment.empty()) return false;
-  const int own = grid.segment.at<int>(v, u);
+  const bool unsure = !grid.unsure.empty();
+  if (grid.segment.empty() && !unsure) return false;
+  const int own = grid.segment.empty() ? 0 : grid.segment.at<int>(v, u);
   const int du[4] = {-1, 1, 0, 0}, dv[4] = {0, 0, -1, 1};
   for (int k = 0; k < 4; ++k) {
     const int uu = u + du[k], vv = v + dv[k];
     if (rendered.at<float>(vv, uu) > 0.0f || !grid.mask.at<uint8_t>(vv, uu)) continue;
-    const int other = grid.segment.at<int>(vv, uu);
+    if (unsure && grid.unsure.at<uint8_t>(vv, uu)) return true;
+    const int other = grid.segment.empty() ? 0 : grid.segment.at<int>(vv, uu);
     if (other > 0 && other != own) return true;
   }
   return false;

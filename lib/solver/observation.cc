@@ -55,7 +55,7 @@ double MedianMaskedDepth(const cv::Mat& mask, const cv::Mat& depth, int* valid_p
 
 EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, const cv::Mat& depth,
                                   const GridOptions& options, const cv::Mat& support,
-                                  const DepthSegmentation* segmentation) {
+                                  const DepthSegmentation* segmentation, const cv::Mat& unsure) {
   G6D_CHECK(mask.type() == CV_8U && depth.type() == CV_32F);
   G6D_CHECK(support.empty() || (support.type() == CV_8U && support.size() == mask.size()));
   const cv::Mat segments = segmentation != nullptr ? segmentation->labels : cv::Mat();
@@ -86,6 +86,8 @@ EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, con
   grid.mask.create(grid.camera.height, grid.camera.width, CV_8U);
   grid.depth.create(grid.camera.height, grid.camera.width, CV_32F);
   if (!support.empty()) grid.support.create(grid.camera.height, grid.camera.width, CV_8U);
+  G6D_CHECK(unsure.empty() || (unsure.type() == CV_8U && unsure.size() == mask.size()));
+  if (!unsure.empty()) grid.unsure.create(grid.camera.height, grid.camera.width, CV_8U);
   for (int v = 0; v < grid.camera.height; ++v) {
     const int sv = std::min(y1 - 1, y0 + static_cast<int>((v + 0.5) / scale));
     const uint8_t* m = mask.ptr<uint8_t>(sv);
@@ -97,6 +99,7 @@ EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, con
     for (int u = 0; u < grid.camera.width; ++u) {
       const int su = std::min(x1 - 1, x0 + static_cast<int>((u + 0.5) / scale));
       if (gs != nullptr) gs[u] = s[su] ? 255 : 0;
+      if (!unsure.empty()) grid.unsure.at<uint8_t>(v, u) = unsure.at<uint8_t>(sv, su) ? 255 : 0;
       gm[u] = m[su] ? 255 : 0;
       const float z = d[su];
       gd[u] = (z > 0.0f && std::isfinite(z)) ? z : 0.0f;

@@ -29,6 +29,9 @@ struct EvaluationGrid {
   std::vector<int> segment_pixels;
   /// The spans of each segment (DepthSegment::spans) by label (index 0 unused).
   std::vector<Spans> segment_spans;
+  /// CV_8U 0/255 on the grid: mask pixels the depth cannot judge (ObservedRegion::unsure);
+  /// empty when none.
+  cv::Mat unsure;
   int mask_pixels = 0;
 };
 
@@ -45,10 +48,11 @@ struct GridOptions {
 /// Resamples `mask` (CV_8U, non-zero = object) and `depth` (CV_32F metres) of the full
 /// image onto the ROI around the mask box, clipped to the image.
 /// `support` (optional, CV_8U frame size, non-zero = on the support plane) is resampled too,
-/// and so are the depth `segments` of the mask (optional) when it holds two or more.
+/// and so are the depth `segments` of the mask (optional) when it holds two or more, and
+/// `unsure` (optional, CV_8U frame size, ObservedRegion::unsure).
 EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, const cv::Mat& depth,
                                   const GridOptions& options, const cv::Mat& support = cv::Mat(),
-                                  const DepthSegmentation* segments = nullptr);
+                                  const DepthSegmentation* segments = nullptr, const cv::Mat& unsure = cv::Mat());
 
 /// z_M of eq. (9): mean observed depth over mask pixels with valid depth, metres;
 /// 0 when there is none. *valid_pixels (optional) receives their count.

@@ -115,6 +115,48 @@ Plane DominantPlane(const std::vector<Eigen::Vector3d>& points, double tolerance
 
 }  // namespace
 
+namespace {
+
+// ObservedRegion::unsure: the mask's pixels without depth connected (4-neighbours, through
+// such pixels) to a pixel outside the mask. Needs region->mask and region->depth_valid.
+void MarkUnsurePixelsFrom(const cv::Mat& depth, ObservedRegion* region) {
+  const cv::Mat& mask = region->mask;
+  cv::Mat unsure = cv::Mat::zeros(mask.size(), CV_8U);
+  std::vector<cv::Point> front;
+  auto no_depth_in_mask = [&](int u, int v) {
+    const float z = depth.at<float>(v, u);
+    return mask.at<uint8_t>(v, u) && !(z > 0.0f && std::isfinite(z));
+  };
+  const int du[4] = {-1, 1, 0, 0}, dv[4] = {0, 0, -1, 1};
+  for (int v = 0; v < mask.rows; ++v) {
+    for (int u = 0; u < mask.cols; ++u) {
+      if (!no_depth_in_mask(u, v)) continue;
+      bool at_edge = false;
+      for (int k = 0; k < 4 && !at_edge; ++k) {
+        const int uu = u + du[k], vv = v + dv[k];
+        at_edge = uu < 0 || vv < 0 || uu >= mask.cols || vv >= mask.rows || !mask.at<uint8_t>(vv, uu);
+      }
+      if (!at_edge) continue;
+      unsure.at<uint8_t>(v, u) = 255;
+      front.push_back(cv::Point(u, v));
+    }
+  }
+  while (!front.empty()) {
+    const cv::Point p = front.back();
+    front.pop_back();
+    for (int k = 0; k < 4; ++k) {
+      const int u = p.x + du[k], v = p.y + dv[k];
+      if (u < 0 || v < 0 || u >= mask.cols || v >= mask.rows || unsure.at<uint8_t>(v, u) || !no_depth_in_mask(u, v)) continue;
+      unsure.at<uint8_t>(v, u) = 255;
+      front.push_back(cv::Point(u, v));
+    }
+  }
+  region->unsure_pixels = cv::countNonZero(unsure);
+  if (region->unsure_pixels > 0) region->unsure = unsure;
+}
+
+}  // namespace
+
 ObservedRegion ComputeObservedRegion(const Camera& camera, const cv::Mat& mask, const cv::Mat& depth,
                                      double diameter_m, const RegionOptions& options) {
   G6D_CHECK(mask.type() == CV_8U && depth.type() == CV_32F && mask.size() == depth.size());
@@ -247,9 +289,11 @@ ObservedRegion ComputeObservedRegion(const Camera& camera, const cv::Mat& mask, 
     region.support_leak = region.far_leak = 0;
     region.has_plane = false;
     region.support.release();
+    MarkUnsurePixelsFrom(depth, &region);
     return region;
   }
   region.mask = kept;
+  MarkUnsurePixelsFrom(depth, &region);
   return region;
 }
 

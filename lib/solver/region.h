@@ -83,6 +83,13 @@ struct ObservedRegion {
   /// A depth within this of a rendered surface lies on it (metres): noise_sigmas · σ(z) at
   /// the mask's median depth plus pose_tolerance_fraction · diameter.
   double surface_tolerance_m = 0.0;
+  /// CV_8U 0/255, frame size: mask pixels without valid depth that reach the mask's edge
+  /// through pixels without depth. The mask may have leaked there onto what the sensor did
+  /// not see (background beyond its range, a shadow), or the object's edge is dark: neither
+  /// for nor against a pose that does not cover them (ScoreRendering), and the search leaves
+  /// them out. Empty when there are none.
+  cv::Mat unsure;
+  int unsure_pixels = 0;   ///< of the mask's pixels
   int given_pixels = 0;    ///< pixels of the caller's mask
   int support_leak = 0;    ///< of them on the support plane
   int far_leak = 0;        ///< of them far behind or in front of the object

@@ -65,6 +65,7 @@ PoseScore ScoreRendering(const EvaluationGrid& grid, const RasterImage& rendered
     const float* d = grid.depth.ptr<float>(v);
     const float* r = rendered.depth.ptr<float>(v);
     const int* label = by_segment ? grid.segment.ptr<int>(v) : nullptr;
+    const uint8_t* unsure = grid.unsure.empty() ? nullptr : grid.unsure.ptr<uint8_t>(v);
     for (int u = 0; u < grid.mask.cols; ++u) {
       bool in_observed = m[u] != 0;
       bool in_rendered = r[u] > 0.0f;
@@ -85,6 +86,9 @@ PoseScore ScoreRendering(const EvaluationGrid& grid, const RasterImage& rendered
           in_observed = true;
         }
       }
+      // A mask pixel the depth cannot judge (ObservedRegion::unsure) counts only for a pose
+      // that covers it.
+      if (in_observed && !in_rendered && unsure != nullptr && unsure[u]) in_observed = false;
       observed += in_observed;
       score.rendered_pixels += in_rendered;
       intersection += in_observed && in_rendered;
