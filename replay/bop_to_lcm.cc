@@ -7,11 +7,13 @@
 #include <lcm/lcm-cpp.hpp>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <set>
 #include <sstream>
 
 #include "core/error.h"
 #include "core/timer.h"
+#include "eval/mask_degrade.h"
 #include "wire/frame_codec.h"
 
 namespace g6d {
@@ -68,6 +70,27 @@ ColorEncoding ParseColorEncoding(const std::string& text) {
   G6D_THROW("colour encoding '" << text << "' is not one of raw, zstd, png, jpeg");
 }
 
+InstanceInput ParseInstanceInput(const std::string& text) {
+  if (text == "label") return InstanceInput::kLabel;
+  if (text == "box") return InstanceInput::kBox;
+  G6D_THROW("instance input '" << text << "' is not one of label, box");
+}
+
+IdentityInput ParseIdentityInput(const std::string& text) {
+  if (text == "given") return IdentityInput::kGiven;
+  if (text == "unknown") return IdentityInput::kUnknown;
+  G6D_THROW("identity input '" << text << "' is not one of given, unknown");
+}
+
+cv::Rect BoxOfMask(const cv::Mat& mask, int margin_px) {
+  if (cv::countNonZero(mask) == 0) return {};
+  // The benchmark's box mask itself, so that both get exactly the same pixels.
+  MaskDegradeOptions box;
+  box.mode = MaskDegradation::kBox;
+  box.size_px = margin_px;
+  return cv::boundingRect(DegradeMask(mask, {}, box, /*instance_key=*/0));
+}
+
 std::vector<int> ParseFrameList(const std::string& text) {
   std::set<int> ids;
   std::stringstream stream(text);
@@ -112,6 +135,7 @@ std::string BopToLcmOptions::Check() const {
     return "fps must be finite and > 0, got " + std::to_string(fps);
   if (start_utime < 0) return "start_utime must be >= 0, got " + std::to_string(start_utime);
   if (split.empty()) return "split must not be empty";
+  if (box_margin_px < 0) return "box_margin_px must be >= 0, got " + std::to_string(box_margin_px);
   const std::string bad_encode = encode.Check();
   if (!bad_encode.empty()) return "encode: " + bad_encode;
   return "";
@@ -148,7 +172,7 @@ std::vector<int> SelectInstances(const BopFrame& frame, int scene_id,
 rgbd_frame_t MakeBopFrameMessage(const BopScene& scene, const BopFrame& frame,
                                  const std::vector<int>& gt_indices, const std::string& source,
                                  const BopToLcmOptions& options, int64_t seq, int64_t utime,
-                                 int64_t* overlap_pixels) {
+                                 int64_t* overlap_pixels, int* empty_masks) {
   const cv::Mat rgb = LoadBopRgb(scene, frame.im_id);
   const cv::Mat depth = ReadRawDepth(scene, frame.im_id);
   if (depth.size() != rgb.size()) {
@@ -161,6 +185,8 @@ rgbd_frame_t MakeBopFrameMessage(const BopScene& scene, const BopFrame& frame,
   const bool wide = max_label > 255;
   cv::Mat labels = cv::Mat::zeros(rgb.size(), wide ? CV_16UC1 : CV_8UC1);
   int64_t overlap = 0;
+  int empty = 0;
+  const bool boxes = options.instances == InstanceInput::kBox;
   rgbd_frame_t message{};
   for (int gt_idx : gt_indices) {
     const cv::Mat mask = LoadBopMaskVisib(scene, frame.im_id, gt_idx);
@@ -169,7 +195,28 @@ rgbd_frame_t MakeBopFrameMessage(const BopScene& scene, const BopFrame& frame,
                          << gt_idx << " is " << mask.cols << "x" << mask.rows << " but rgb is "
                          << rgb.cols << "x" << rgb.rows);
     }
+    instance_t instance{};  // {}: no box, no candidates (lcm-gen leaves members uninitialized)
+    instance.object_id =
+        options.identity == IdentityInput::kGiven ? BopObjectName(frame.gt[gt_idx].obj_id) : "";
+    instance.score = 1.0f;
+    instance.gt_index = gt_idx;
+    if (boxes) {
+      // No label image pixels: the box is all the frame says about where the object is.
+      const cv::Rect box = BoxOfMask(mask, options.box_margin_px);
+      if (box.empty()) {
+        ++empty;  // nothing visible: no box to send (the benchmark's box is empty too)
+        continue;
+      }
+      instance.label = 0;
+      instance.box[0] = box.x;
+      instance.box[1] = box.y;
+      instance.box[2] = box.width;
+      instance.box[3] = box.height;
+      message.instances.push_back(instance);
+      continue;
+    }
     const int label = gt_idx + 1;
+    instance.label = label;
     for (int v = 0; v < mask.rows; ++v) {
       const uint8_t* in = mask.ptr<uint8_t>(v);
       for (int u = 0; u < mask.cols; ++u) {
@@ -185,14 +232,10 @@ rgbd_frame_t MakeBopFrameMessage(const BopScene& scene, const BopFrame& frame,
         }
       }
     }
-    instance_t instance;
-    instance.object_id = BopObjectName(frame.gt[gt_idx].obj_id);
-    instance.label = label;
-    instance.score = 1.0f;
-    instance.gt_index = gt_idx;
     message.instances.push_back(instance);
   }
   if (overlap_pixels != nullptr) *overlap_pixels = overlap;
+  if (empty_masks != nullptr) *empty_masks = empty;
 
   message.utime = utime;
   message.seq = seq;
@@ -209,8 +252,15 @@ rgbd_frame_t MakeBopFrameMessage(const BopScene& scene, const BopFrame& frame,
       EncodeImage(rgb, image_t::FORMAT_RGB8, ColorCompression(options.color), options.encode);
   message.depth =
       EncodeImage(depth, image_t::FORMAT_DEPTH_U16, image_t::COMPRESSION_ZSTD, options.encode);
-  message.labels = EncodeImage(labels, wide ? image_t::FORMAT_LABEL_U16 : image_t::FORMAT_LABEL_U8,
-                               image_t::COMPRESSION_ZSTD, options.encode);
+  if (boxes) {
+    // No label image: a 0 x 0 plane (DecodeFrame reads it as "none").
+    message.labels = image_t{};
+    message.labels.pixel_format = image_t::FORMAT_LABEL_U8;
+    message.labels.compression = image_t::COMPRESSION_NONE;
+  } else {
+    message.labels = EncodeImage(labels, wide ? image_t::FORMAT_LABEL_U16 : image_t::FORMAT_LABEL_U8,
+                                 image_t::COMPRESSION_ZSTD, options.encode);
+  }
   message.num_instances = static_cast<int32_t>(message.instances.size());
   return message;
 }
@@ -260,8 +310,10 @@ BopToLcmReport WriteBopSceneLog(const BopToLcmOptions& options, const std::strin
 
     const int64_t utime = options.start_utime + Round(seq * period_us);
     int64_t overlap = 0;
-    const rgbd_frame_t message =
-        MakeBopFrameMessage(scene, frame, gt_indices, report.source, options, seq, utime, &overlap);
+    int empty = 0;
+    const rgbd_frame_t message = MakeBopFrameMessage(scene, frame, gt_indices, report.source,
+                                                     options, seq, utime, &overlap, &empty);
+    report.empty_masks += empty;
     std::vector<uint8_t> bytes(static_cast<size_t>(message.getEncodedSize()));
     if (message.encode(bytes.data(), 0, static_cast<int>(bytes.size())) !=
         static_cast<int>(bytes.size())) {

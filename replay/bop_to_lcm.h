@@ -8,6 +8,8 @@
 /// (mm per unit) / 1000, and the mask_visib/ masks of the chosen instances painted into one
 /// label image (LABEL_U8 when every label fits, else LABEL_U16; zstd). Instance `label` =
 /// BOP gt_idx + 1, `gt_index` = gt_idx, `object_id` = BOP stem "obj_%06d", `score` = 1.
+/// With InstanceInput::kBox an instance is a box instead (label 0, no label image at all:
+/// a 0 x 0 label plane); with IdentityInput::kUnknown its object_id is empty.
 
 #include <cstdint>
 #include <string>
@@ -34,6 +36,26 @@ ColorEncoding ParseColorEncoding(const std::string& text);
 /// Throws g6d::Error naming the bad item (not a number, negative, reversed range).
 std::vector<int> ParseFrameList(const std::string& text);
 
+/// Where each instance is, as the frames say it.
+enum class InstanceInput {
+  kLabel,  ///< its GT visible mask in the label image (label = gt_idx + 1)
+  kBox,    ///< a box only: the bounding box of its GT visible mask grown by box_margin_px on
+           ///< each side and clipped to the image (g6d-bench-dataset --degrade-masks box's
+           ///< mask, DegradeMask kBox); an instance whose mask is empty is left out
+};
+
+/// Parses "label" or "box"; throws g6d::Error naming the bad value otherwise.
+InstanceInput ParseInstanceInput(const std::string& text);
+
+/// Which object each instance is, as the frames say it.
+enum class IdentityInput {
+  kGiven,    ///< object_id = the GT object
+  kUnknown,  ///< object_id empty, no candidates listed: the service chooses among every loaded object
+};
+
+/// Parses "given" or "unknown"; throws g6d::Error naming the bad value otherwise.
+IdentityInput ParseIdentityInput(const std::string& text);
+
 /// Options of WriteBopSceneLog().
 struct BopToLcmOptions {
   std::string channel = "G6D_RGBD";           ///< LCM channel of the events
@@ -51,6 +73,11 @@ struct BopToLcmOptions {
   /// When false, every image and every GT instance is included, targets or not.
   bool use_targets = true;
   std::string split = "test";  ///< split folder of the scene
+  InstanceInput instances = InstanceInput::kLabel;  ///< masks (label image) or boxes
+  /// kBox: margin added on each side of the GT visible mask's bounding box, pixels, >= 0
+  /// (6, as g6d-bench-dataset's --degrade-px default).
+  int box_margin_px = 6;
+  IdentityInput identity = IdentityInput::kGiven;   ///< object ids given or left empty
 
   /// Empty when valid, else names the bad field.
   std::string Check() const;
@@ -67,6 +94,7 @@ struct BopToLcmReport {
   int images_in_scene = 0;     ///< images listed in scene_camera.json
   int missing_instances = 0;   ///< target instances not found in scene_gt.json
   int64_t overlap_pixels = 0;  ///< mask pixels claimed by two instances (last one kept)
+  int empty_masks = 0;         ///< kBox: instances left out because their visible mask is empty
   int64_t bytes_written = 0;   ///< size of the log file
   double seconds = 0.0;        ///< wall time
 };
@@ -74,14 +102,22 @@ struct BopToLcmReport {
 /// The dataset folder name used as `source`: "../data/lmo/" -> "lmo".
 std::string BopSourceName(const std::string& dataset_dir);
 
-/// One image as a frame message with the given instances (indices into frame.gt).
+/// One image as a frame message with the given instances (indices into frame.gt), as
+/// labels or boxes and with or without object ids (options.instances, options.identity).
 /// `overlap_pixels` (optional) receives the number of label pixels that two of these
-/// instances' visible masks both claim (the later instance keeps them). Throws g6d::Error
-/// naming the file when an image is missing, unreadable or of the wrong size or type.
+/// instances' visible masks both claim (the later instance keeps them; 0 with boxes);
+/// `empty_masks` (optional) the box instances left out because their visible mask is
+/// empty. Throws g6d::Error naming the file when an image is missing, unreadable or of the
+/// wrong size or type.
 rgbd_frame_t MakeBopFrameMessage(const BopScene& scene, const BopFrame& frame,
                                  const std::vector<int>& gt_indices, const std::string& source,
                                  const BopToLcmOptions& options, int64_t seq, int64_t utime,
-                                 int64_t* overlap_pixels = nullptr);
+                                 int64_t* overlap_pixels = nullptr, int* empty_masks = nullptr);
+
+/// The box of an instance whose GT visible mask is `mask` (CV_8U, non-zero = visible), as
+/// InstanceInput::kBox sends it: DegradeMask's kBox mask with margin `margin_px`, as a
+/// rectangle inside the image; empty (0 x 0) when the mask is empty.
+cv::Rect BoxOfMask(const cv::Mat& mask, int margin_px);
 
 /// The GT indices of `frame` to send per image id: all of them without targets, else for
 /// each target (scene_id, im_id, obj_id, inst_count) the first inst_count GT instances of

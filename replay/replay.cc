@@ -526,6 +526,11 @@ std::string EstimatesJsonLines(const std::vector<ReplayedFrame>& frames) {
           estimate.has_runner_up ? Json(estimate.runner_up_score) : Json(nullptr);
       const Json appearance_agreement =
           estimate.appearance_valid ? Json(estimate.appearance_agreement) : Json(nullptr);
+      const bool has_runner_up_object = !estimate.runner_up_object_id.empty();
+      const Json runner_up_object_id =
+          has_runner_up_object ? Json(estimate.runner_up_object_id) : Json(nullptr);
+      const Json runner_up_object_score =
+          has_runner_up_object ? Json(estimate.runner_up_object_score) : Json(nullptr);
       const Json line = {
           {"scene_id", frame.answer.scene_id},
           {"image_id", frame.answer.image_id},
@@ -550,6 +555,11 @@ std::string EstimatesJsonLines(const std::vector<ReplayedFrame>& frames) {
           {"mode", EstimateModeName(estimate.mode)},
           {"track_id", estimate.track_id},
           {"frames_since_detection", estimate.frames_since_detection},
+          {"mask_iou", estimate.mask_iou},
+          {"identity_searched", estimate.identity_searched != 0},
+          {"runner_up_object_id", runner_up_object_id},
+          {"runner_up_object_score", runner_up_object_score},
+          {"candidates_tried", estimate.candidates_tried},
           {"position", {estimate.position[0], estimate.position[1], estimate.position[2]}},
           {"orientation",
            {estimate.orientation[0], estimate.orientation[1], estimate.orientation[2],

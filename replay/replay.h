@@ -169,7 +169,10 @@ std::string ReplaySummaryJson(const ReplayOptions& options, const FrameLogStats&
 /// confidence, iou, depth_residual, truncated, ambiguous (booleans), runner_up_score (S of
 /// the runner-up; null without one), appearance_agreement (ZNCC in [-1, 1]; null when not
 /// valid), hypotheses, solve_time_s, mode ("detected", "tracked", "redetected"), track_id
-/// (-1: no track), frames_since_detection, position (m) and orientation (w, x, y, z) of
+/// (-1: no track), frames_since_detection, mask_iou (the answer's mask vs the request's),
+/// identity_searched (the request had no object id; object_id is then the chosen one),
+/// runner_up_object_id and runner_up_object_score (the runner-up identity and its S; null
+/// without one), candidates_tried, position (m) and orientation (w, x, y, z) of
 /// cam_from_object, and the frame's latency_s and service total_s. Failed estimates are
 /// included; frames rejected as a whole or never answered give no line.
 std::string EstimatesJsonLines(const std::vector<ReplayedFrame>& frames);

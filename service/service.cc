@@ -272,18 +272,76 @@ std::vector<TrackPlan> Service::PlanFrame(const Job& job, double time_s,
   }
 }
 
+std::optional<pose_estimate_t> Service::CandidatesOf(const DecodedInstance& request, size_t index,
+                                                     std::vector<const TemplateBank*>* banks) const {
+  banks->clear();
+  if (request.candidate_ids.empty()) {
+    for (const auto& [object_id, bank] : store_.banks) banks->push_back(bank.get());
+    if (banks->empty()) {
+      return MakeFailedEstimate(request, pose_estimate_t::STATUS_UNKNOWN_OBJECT,
+                                "instance " + std::to_string(index) +
+                                    " (identity unknown): no object is loaded to choose from");
+    }
+    return std::nullopt;
+  }
+  for (size_t c = 0; c < request.candidate_ids.size(); ++c) {
+    const std::string& id = request.candidate_ids[c];
+    const auto bank = store_.banks.find(id);
+    if (bank == store_.banks.end()) {
+      return MakeFailedEstimate(request, pose_estimate_t::STATUS_UNKNOWN_OBJECT,
+                                "instance " + std::to_string(index) + " (identity unknown): candidate '" +
+                                    id + "' has no template cache (loaded: " +
+                                    JoinIds(store_.ObjectIds()) + ")");
+    }
+    banks->push_back(bank->second.get());
+  }
+  return std::nullopt;
+}
+
+pose_estimate_t Service::IdentifyInstance(const Job& job, size_t index,
+                                          const std::vector<const TemplateBank*>& candidates) {
+  const DecodedInstance& request = job.decoded.instances[index];
+  if (abandon_) {
+    return MakeFailedEstimate(request, pose_estimate_t::STATUS_INTERNAL_ERROR,
+                              "abandoned: the service is shutting down");
+  }
+  try {
+    return MakeIdentifiedEstimate(
+        request, EstimatePoseOfUnknownObject(job.decoded.frame, request.mask, candidates,
+                                             solver_options_, pool_.get()));
+  } catch (const std::exception& e) {
+    return MakeFailedEstimate(request, pose_estimate_t::STATUS_INTERNAL_ERROR,
+                              std::string("identity search error: ") + e.what());
+  } catch (...) {
+    return MakeFailedEstimate(request, pose_estimate_t::STATUS_INTERNAL_ERROR,
+                              "identity search error: unknown exception");
+  }
+}
+
 void Service::ProcessJob(const Job& job) {
   const Clock::time_point picked = Clock::now();
   const size_t n = job.decoded.instances.size();
   std::vector<pose_estimate_t> estimates(n);
   // The instances the solver can take (valid, with a bank) go to the tracker and the
-  // solver; the others are answered here.
+  // solver; instances of unknown identity (valid, every candidate loaded) to the identity
+  // search, without the tracker: they are solved in full every frame. The others are
+  // answered here.
   std::vector<size_t> solvable;
   std::vector<Instance> instances;
+  std::vector<size_t> searched;
+  std::vector<std::vector<const TemplateBank*>> candidates;
   for (size_t i = 0; i < n; ++i) {
     const DecodedInstance& request = job.decoded.instances[i];
+    std::vector<const TemplateBank*> banks;
     if (!request.error.empty()) {
       estimates[i] = MakeFailedEstimate(request, pose_estimate_t::STATUS_BAD_INPUT, request.error);
+    } else if (request.identity_unknown()) {
+      if (std::optional<pose_estimate_t> refused = CandidatesOf(request, i, &banks)) {
+        estimates[i] = std::move(*refused);
+      } else {
+        searched.push_back(i);
+        candidates.push_back(std::move(banks));
+      }
     } else if (store_.banks.count(request.object_id) == 0) {
       estimates[i] = MakeFailedEstimate(request, pose_estimate_t::STATUS_UNKNOWN_OBJECT,
                                         "no template cache for object id '" + request.object_id +
@@ -293,6 +351,13 @@ void Service::ProcessJob(const Job& job) {
       instances.push_back(Instance{request.object_id, request.mask});
     }
   }
+  if (!searched.empty() && options_.tracking.enabled && !logged_untracked_identity_) {
+    spdlog::info(
+        "frame seq {}: instances without an object id are solved in full every frame (the "
+        "identity search over the candidates), not tracked",
+        job.header.seq);
+    logged_untracked_identity_ = true;
+  }
   // Frame time from the capture utime: the tracks age with the camera's clock, not with
   // the time the service takes to get to a frame.
   const double time_s = static_cast<double>(job.header.utime) * 1e-6;
@@ -301,10 +366,16 @@ void Service::ProcessJob(const Job& job) {
   std::vector<TrackedAnswer> answers(solvable.size());
   std::vector<std::optional<pose_estimate_t>> failures(solvable.size());
   // Instances fan out over the pool, and each solve fans its hypotheses (or TrackPose
-  // starts) out over the same pool (nested ParallelFor is safe: the caller always takes
-  // part).
-  pool_->ParallelFor(static_cast<int>(solvable.size()), [&](int k) {
-    failures[k] = SolveInstance(job, solvable[k], instances[k], plans[k], &answers[k]);
+  // starts, or the identity search's candidates' hypotheses) out over the same pool
+  // (nested ParallelFor is safe: the caller always takes part).
+  const int num_solvable = static_cast<int>(solvable.size());
+  pool_->ParallelFor(num_solvable + static_cast<int>(searched.size()), [&](int k) {
+    if (k < num_solvable) {
+      failures[k] = SolveInstance(job, solvable[k], instances[k], plans[k], &answers[k]);
+    } else {
+      const size_t s = static_cast<size_t>(k - num_solvable);
+      estimates[searched[s]] = IdentifyInstance(job, searched[s], candidates[s]);
+    }
   });
   // An abandoned or failed instance's answer is unsolved: Update leaves its track to expire.
   tracker_.Update(time_s, plans, &answers);
@@ -331,11 +402,18 @@ void Service::ProcessJob(const Job& job) {
     const std::vector<StageTime> times = StageTimes(answer.result.stages);
     for (size_t s = 0; s < sum.size(); ++s) sum[s].ms += times[s].ms;
   }
+  // The identity searches' solver time (every candidate's solve), summed like "track".
+  double identify_s = 0.0;
+  for (size_t i : searched) {
+    CountAnswer(estimates[i]);
+    identify_s += estimates[i].solve_time_s;
+  }
   Timings timings = {{"queue_wait", SecondsBetween(job.queued, picked)}, {"decode", job.decode_s}};
   for (const StageTime& stage : sum) {
     if (std::string(stage.name) != "total") timings.emplace_back(stage.name, stage.ms * 1e-3);
   }
   timings.emplace_back("track", track_ms * 1e-3);
+  timings.emplace_back("identify", identify_s);
   timings.emplace_back("solve", SecondsBetween(picked, solved));
   timings.emplace_back("publish", 0.0);
   pose_array_t answer = MakePoseArray(job.header, pose_array_t::STATUS_OK, "ok",

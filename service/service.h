@@ -113,6 +113,16 @@ class Service {
   std::optional<pose_estimate_t> SolveInstance(const Job& job, size_t index,
                                                const Instance& instance, const TrackPlan& plan,
                                                TrackedAnswer* answer);
+  /// The banks of an instance of unknown identity's candidates (every loaded bank when it
+  /// lists none) into *banks; or, when one is not loaded (or nothing is), its
+  /// STATUS_UNKNOWN_OBJECT estimate naming it.
+  std::optional<pose_estimate_t> CandidatesOf(const DecodedInstance& request, size_t index,
+                                              std::vector<const TemplateBank*>* banks) const;
+  /// EstimatePoseOfUnknownObject of instance `index` of the job over `candidates` (on the
+  /// worker pool, never tracked) as an estimate; a failed estimate when abandoned or when
+  /// the search throws.
+  pose_estimate_t IdentifyInstance(const Job& job, size_t index,
+                                   const std::vector<const TemplateBank*>& candidates);
   /// Tracker::Plan of the job's solvable `instances` at frame time `time_s`, or detection
   /// plans (and the tracks forgotten) if it throws.
   std::vector<TrackPlan> PlanFrame(const Job& job, double time_s,
@@ -142,6 +152,8 @@ class Service {
   /// Periodic re-detections of tracks (tracking.background_redetect); null when off.
   std::unique_ptr<BackgroundDetector> background_;
   int64_t background_corrections_ = 0;  ///< tracks a background re-detection moved (scheduler thread)
+  /// The log said once that instances of unknown identity are not tracked (scheduler thread).
+  bool logged_untracked_identity_ = false;
   LatestMailbox<Job> mailbox_;
   lcm::Subscription* subscription_ = nullptr;
 

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -292,7 +293,7 @@ rgbd_frame_t MakeFrame() {
   labels(cv::Rect(30, 20, 5, 4)).setTo(2);
   frame.labels = EncodeImage(labels, image_t::FORMAT_LABEL_U8, image_t::COMPRESSION_ZSTD);
   for (int label : {1, 2}) {
-    instance_t instance;
+    instance_t instance{};  // {}: no box, no candidates (lcm-gen leaves members uninitialized)
     instance.object_id = "obj_00000" + std::to_string(label);
     instance.label = label;
     instance.score = 0.9f;
@@ -402,29 +403,102 @@ TEST(DecodeFrame, RefusesLabelsNamedByNoInstance) {
               {"labels:", "label 2 (20 pixels) is named by no instance"});
 }
 
+// An instance: `object_id`, `label`, and a box when `box` has a width.
+instance_t MakeInstance(const std::string& object_id, int32_t label, cv::Rect box = cv::Rect()) {
+  instance_t instance{};
+  instance.object_id = object_id;
+  instance.label = label;
+  instance.gt_index = -1;
+  instance.box[0] = box.x;
+  instance.box[1] = box.y;
+  instance.box[2] = box.width;
+  instance.box[3] = box.height;
+  return instance;
+}
+
 TEST(DecodeFrame, InstanceProblemsStayWithTheInstance) {
   rgbd_frame_t message = MakeFrame();
-  instance_t missing;
-  missing.object_id = "obj_000009";
-  missing.label = 3;  // no pixel carries label 3
-  instance_t background = missing;
-  background.label = 0;
-  instance_t out_of_range = missing;
-  out_of_range.label = 300;  // a LABEL_U8 image cannot hold it
-  instance_t no_id = missing;
-  no_id.object_id = "";
-  no_id.label = 1;
-  message.instances.insert(message.instances.end(), {missing, background, out_of_range, no_id});
+  instance_t no_id = MakeInstance("", 1);
+  no_id.candidate_ids = {"obj_000001", ""};
+  no_id.num_candidate_ids = 2;
+  instance_t miscounted = MakeInstance("", 1);
+  miscounted.num_candidate_ids = 1;  // but no id: a message built in-process, never decoded
+  message.instances.insert(
+      message.instances.end(),
+      {MakeInstance("obj_000009", 3),  // no pixel carries label 3
+       MakeInstance("obj_000009", 0),  // no mask and no box
+       MakeInstance("obj_000009", 300),  // a LABEL_U8 image cannot hold it
+       MakeInstance("obj_000009", -2), no_id,
+       MakeInstance("obj_000009", 0, cv::Rect(kWidth, 0, 5, 5)),    // right of the image
+       MakeInstance("obj_000009", 0, cv::Rect(-10, -10, 10, 10)),  // up and left of it
+       MakeInstance("obj_000009", 0, cv::Rect(2, 2, 5, -1)),
+       MakeInstance("obj_000009", 3, cv::Rect(2, 2, 5, 5)),  // the label wins: no fallback to the box
+       miscounted});
   message.num_instances = static_cast<int32_t>(message.instances.size());
   const DecodedFrame decoded = DecodeFrame(message);
-  ASSERT_EQ(decoded.instances.size(), 6u);
+  ASSERT_EQ(decoded.instances.size(), 12u);
   EXPECT_TRUE(decoded.instances[0].error.empty());
   EXPECT_TRUE(decoded.instances[1].error.empty());
-  EXPECT_NE(decoded.instances[2].error.find("label 3 has no pixels"), std::string::npos);
-  EXPECT_NE(decoded.instances[3].error.find("label must be > 0"), std::string::npos);
-  EXPECT_NE(decoded.instances[4].error.find("label 300 has no pixels"), std::string::npos);
-  EXPECT_NE(decoded.instances[5].error.find("empty object id"), std::string::npos);
-  EXPECT_TRUE(decoded.instances[2].mask.empty());
+  const char* expected[] = {
+      "instance 2 (obj_000009): label 3 has no pixels",
+      "instance 3 (obj_000009): no mask and no box",
+      "label 300 has no pixels",
+      "label must be > 0 for a mask, or 0 with a box (got -2)",
+      "instance 6 (identity unknown): candidate_ids[1] is empty",
+      "box (x 64, y 0, width 5, height 5) lies outside the 64x48 image",
+      "box (x -10, y -10, width 10, height 10) lies outside",
+      "box height must be > 0 (got -1)",
+      "instance 10 (obj_000009): label 3 has no pixels",
+      "num_candidate_ids 1 but 0 candidate ids"};
+  for (size_t i = 2; i < decoded.instances.size(); ++i) {
+    SCOPED_TRACE("instance " + std::to_string(i));
+    EXPECT_NE(decoded.instances[i].error.find(expected[i - 2]), std::string::npos)
+        << decoded.instances[i].error;
+    EXPECT_TRUE(decoded.instances[i].mask.empty());
+    EXPECT_EQ(decoded.instances[i].mask_pixels, 0);
+  }
+}
+
+TEST(DecodeFrame, BoxBecomesTheFilledMaskClippedToTheImage) {
+  rgbd_frame_t message = MakeFrame();
+  message.instances.push_back(MakeInstance("obj_000003", 0, cv::Rect(40, 30, 8, 6)));
+  message.instances.push_back(MakeInstance("obj_000004", 0, cv::Rect(-5, 40, 20, 100)));  // clipped
+  message.num_instances = 4;
+  const DecodedFrame decoded = DecodeFrame(message);
+  ASSERT_EQ(decoded.instances.size(), 4u);
+  const DecodedInstance& inside = decoded.instances[2];
+  ASSERT_TRUE(inside.error.empty()) << inside.error;
+  EXPECT_FALSE(inside.identity_unknown());
+  EXPECT_EQ(inside.box, cv::Rect(40, 30, 8, 6));
+  EXPECT_EQ(inside.mask_pixels, 48);
+  ASSERT_EQ(inside.mask.type(), CV_8UC1);
+  EXPECT_EQ(cv::countNonZero(inside.mask), 48);
+  EXPECT_EQ(cv::countNonZero(inside.mask(inside.box)), 48);
+  const DecodedInstance& clipped = decoded.instances[3];
+  ASSERT_TRUE(clipped.error.empty()) << clipped.error;
+  EXPECT_EQ(clipped.box, cv::Rect(0, 40, 15, kHeight - 40));
+  EXPECT_EQ(cv::countNonZero(clipped.mask), 15 * (kHeight - 40));
+  // A labelled instance has no box, and its mask is its label's.
+  EXPECT_EQ(decoded.instances[0].box, cv::Rect());
+  EXPECT_EQ(decoded.instances[0].mask_pixels, 100);
+}
+
+TEST(DecodeFrame, NoLabelImageForBoxesOnly) {
+  rgbd_frame_t message = MakeFrame();
+  message.labels = image_t{};  // 0 x 0, no bytes: no label image
+  message.instances = {MakeInstance("obj_000001", 0, cv::Rect(10, 10, 10, 10)),
+                       MakeInstance("obj_000002", 2)};
+  message.num_instances = 2;
+  const DecodedFrame decoded = DecodeFrame(message);
+  ASSERT_EQ(decoded.labels.size(), cv::Size(kWidth, kHeight));
+  EXPECT_EQ(cv::countNonZero(decoded.labels), 0);
+  EXPECT_TRUE(decoded.instances[0].error.empty()) << decoded.instances[0].error;
+  EXPECT_EQ(decoded.instances[0].mask_pixels, 100);
+  // A label needs a label image.
+  EXPECT_NE(decoded.instances[1].error.find("label 2 has no pixels"), std::string::npos);
+  // A label plane with a size is still checked against the colour's.
+  message.labels.width = 3;
+  ExpectError([&] { DecodeFrame(message); }, {"labels:"});
 }
 
 TEST(DecodeFrame, RefusesTooManyInstances) {
@@ -510,12 +584,57 @@ TEST(DecodeRgbdFrameMessage, RefusesHugeDeclaredSizesWithoutAllocating) {
   PutI32(&bad, 8 + 16, 1 << 30);
   ExpectError([&] { DecodeRgbdFrameMessage(bad.data(), static_cast<int64_t>(bad.size())); },
               {"message:", "camera_id declares"});
-  // num_instances: the last instance has 4 + 11 + 12 bytes, the first as many.
-  const size_t num_instances_offset = bytes.size() - 2 * (4 + 11 + 12) - 4;
+  // num_instances: the last instance has 4 + 11 (object id) + 12 (label, score, gt_index)
+  // + 16 (box) + 4 (num_candidate_ids) bytes, the first as many.
+  const size_t num_instances_offset = bytes.size() - 2 * (4 + 11 + 12 + 16 + 4) - 4;
   bad = bytes;
   PutI32(&bad, num_instances_offset, 1 << 30);
   ExpectError([&] { DecodeRgbdFrameMessage(bad.data(), static_cast<int64_t>(bad.size())); },
               {"message:", "num_instances declares"});
+  // num_candidate_ids of the last instance (the last 4 bytes), far more than remain.
+  for (int32_t huge : {1 << 30, -1}) {
+    bad = bytes;
+    PutI32(&bad, bytes.size() - 4, huge);
+    ExpectError([&] { DecodeRgbdFrameMessage(bad.data(), static_cast<int64_t>(bad.size())); },
+                {"message:", "instances[1].num_candidate_ids declares"});
+  }
+}
+
+// The box and candidate fields of an instance survive the wire, and the check walks them.
+TEST(DecodeRgbdFrameMessage, BoxAndCandidateIdsRoundTrip) {
+  rgbd_frame_t message = MakeFrame();
+  instance_t& instance = message.instances[1];
+  instance.object_id.clear();
+  instance.label = 0;
+  const int32_t box[4] = {3, 4, 20, 10};
+  std::copy(box, box + 4, instance.box);
+  instance.candidate_ids = {"obj_000001", "obj_000002"};
+  instance.num_candidate_ids = 2;
+  // Label 2 is now named by no instance: take it out of the label image.
+  cv::Mat labels(kHeight, kWidth, CV_8UC1, cv::Scalar(0));
+  labels(cv::Rect(10, 10, 10, 10)).setTo(1);
+  message.labels = EncodeImage(labels, image_t::FORMAT_LABEL_U8, image_t::COMPRESSION_ZSTD);
+  const std::vector<uint8_t> bytes = Encode(message);
+  EXPECT_EQ(CheckEncodedRgbdFrame(bytes.data(), static_cast<int64_t>(bytes.size())), "");
+  const rgbd_frame_t decoded =
+      DecodeRgbdFrameMessage(bytes.data(), static_cast<int64_t>(bytes.size()));
+  ASSERT_EQ(decoded.num_instances, 2);
+  EXPECT_EQ(decoded.instances[0].box[2], 0);  // {}: no box
+  EXPECT_EQ(decoded.instances[0].num_candidate_ids, 0);
+  const instance_t& got = decoded.instances[1];
+  EXPECT_EQ(got.object_id, "");
+  EXPECT_EQ(got.label, 0);
+  EXPECT_EQ(std::vector<int32_t>(got.box, got.box + 4), std::vector<int32_t>(box, box + 4));
+  EXPECT_EQ(got.candidate_ids, instance.candidate_ids);
+  const DecodedFrame frame = DecodeFrame(decoded);
+  ASSERT_TRUE(frame.instances[1].error.empty()) << frame.instances[1].error;
+  EXPECT_TRUE(frame.instances[1].identity_unknown());
+  EXPECT_EQ(frame.instances[1].box, cv::Rect(3, 4, 20, 10));
+  EXPECT_EQ(frame.instances[1].candidate_ids, instance.candidate_ids);
+  // A candidate id cut short by the end of the message is refused before decoding.
+  ExpectError(
+      [&] { DecodeRgbdFrameMessage(bytes.data(), static_cast<int64_t>(bytes.size()) - 3); },
+      {"message:", "candidate_ids"});
 }
 
 }  // namespace

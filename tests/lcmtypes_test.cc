@@ -45,7 +45,7 @@ g6d::rgbd_frame_t MakeFrame() {
   frame.depth.pixel_format = g6d::image_t::FORMAT_DEPTH_U16;
   frame.labels = frame.color;
   frame.labels.pixel_format = g6d::image_t::FORMAT_LABEL_U8;
-  g6d::instance_t instance;
+  g6d::instance_t instance{};
   instance.object_id = "obj_000005";
   instance.label = 3;
   instance.score = 0.9f;
@@ -177,6 +177,72 @@ TEST(PoseArray, TrackingFieldsRoundTripAndChangeTheFingerprints) {
   EXPECT_EQ(g6d::pose_estimate_t::MODE_DETECTED, 0);
   EXPECT_EQ(g6d::pose_estimate_t::MODE_TRACKED, 1);
   EXPECT_EQ(g6d::pose_estimate_t::MODE_REDETECTED, 2);
+}
+
+// The fingerprints of g6d.rgbd_frame_t and g6d.pose_array_t before box and
+// unknown-identity input added instance_t's box and candidate_ids and pose_estimate_t's
+// mask_iou and identity answer (lcmtypes/ at commit 2002510).
+constexpr int64_t kRgbdFrameHashBeforeBoxes = static_cast<int64_t>(0x568267b30981ab65ULL);
+constexpr int64_t kPoseArrayHashBeforeBoxes = static_cast<int64_t>(0x612567f1bee1fffaULL);
+
+TEST(RgbdFrame, BoxAndCandidateIdsRoundTripAndChangeTheFingerprint) {
+  EXPECT_NE(g6d::rgbd_frame_t::getHash(), kRgbdFrameHashBeforeBoxes);
+  g6d::rgbd_frame_t frame = MakeFrame();
+  g6d::instance_t boxed{};
+  boxed.label = 0;
+  const int32_t box[4] = {120, 80, 64, 48};
+  std::copy(box, box + 4, boxed.box);
+  boxed.candidate_ids = {"obj_000001", "obj_000005"};
+  boxed.num_candidate_ids = 2;
+  boxed.gt_index = -1;
+  frame.instances.push_back(boxed);
+  frame.num_instances = 2;
+  std::vector<uint8_t> bytes(static_cast<size_t>(frame.getEncodedSize()));
+  ASSERT_EQ(frame.encode(bytes.data(), 0, static_cast<int>(bytes.size())),
+            static_cast<int>(bytes.size()));
+  g6d::rgbd_frame_t decoded;
+  ASSERT_EQ(decoded.decode(bytes.data(), 0, static_cast<int>(bytes.size())),
+            static_cast<int>(bytes.size()));
+  ASSERT_EQ(decoded.num_instances, 2);
+  // The first instance was made with {}: no box, no candidates.
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(decoded.instances[0].box[i], 0);
+  EXPECT_EQ(decoded.instances[0].num_candidate_ids, 0);
+  const g6d::instance_t& got = decoded.instances[1];
+  EXPECT_EQ(got.object_id, "");
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(got.box[i], box[i]);
+  EXPECT_EQ(got.num_candidate_ids, 2);
+  EXPECT_EQ(got.candidate_ids, boxed.candidate_ids);
+  // A subscriber of the previous definition refuses the new frames.
+  for (int i = 0; i < 8; ++i) {
+    bytes[static_cast<size_t>(i)] =
+        static_cast<uint8_t>(static_cast<uint64_t>(kRgbdFrameHashBeforeBoxes) >> (56 - 8 * i));
+  }
+  EXPECT_LT(decoded.decode(bytes.data(), 0, static_cast<int>(bytes.size())), 0);
+}
+
+TEST(PoseArray, MaskIouAndIdentityFieldsRoundTripAndChangeTheFingerprint) {
+  EXPECT_NE(g6d::pose_array_t::getHash(), kPoseArrayHashBeforeBoxes);
+  g6d::pose_array_t answer = MakeAnswer();
+  g6d::pose_estimate_t& estimate = answer.estimates[0];
+  estimate.mask_iou = 0.625;
+  estimate.identity_searched = 1;
+  estimate.runner_up_object_id = "obj_000002";
+  estimate.runner_up_object_score = 0.375;
+  estimate.candidates_tried = 3;
+  const std::vector<uint8_t> bytes = Encode(answer);
+  g6d::pose_array_t decoded;
+  ASSERT_EQ(decoded.decode(bytes.data(), 0, static_cast<int>(bytes.size())),
+            static_cast<int>(bytes.size()));
+  ASSERT_EQ(decoded.num_estimates, 1);
+  const g6d::pose_estimate_t& got = decoded.estimates[0];
+  EXPECT_EQ(got.mask_iou, 0.625);
+  EXPECT_EQ(got.identity_searched, 1);
+  EXPECT_EQ(got.runner_up_object_id, "obj_000002");
+  EXPECT_EQ(got.runner_up_object_score, 0.375);
+  EXPECT_EQ(got.candidates_tried, 3);
+  // The fields before them are where they were.
+  EXPECT_EQ(got.object_id, "obj_000005");
+  EXPECT_EQ(got.appearance_agreement, 0.75);
 }
 
 class Receiver {

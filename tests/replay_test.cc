@@ -70,7 +70,7 @@ rgbd_frame_t SmallFrame(int64_t seq) {
                             image_t::COMPRESSION_ZSTD);
   frame.labels = EncodeImage(labels, image_t::FORMAT_LABEL_U8, image_t::COMPRESSION_ZSTD);
   for (int label : {1, 2}) {
-    instance_t instance;
+    instance_t instance{};  // {}: no box, no candidates (lcm-gen leaves members uninitialized)
     instance.object_id = BopObjectName(4 + label);
     instance.label = label;
     instance.score = 1.0f;
@@ -612,6 +612,13 @@ TEST(ReplayEndToEnd, SyntheticBopThroughTheRealService) {
       EXPECT_EQ(j["mode"].get<std::string>(), EstimateModeName(estimate.mode));
       EXPECT_EQ(j["track_id"].get<int>(), estimate.track_id);
       EXPECT_EQ(j["frames_since_detection"].get<int>(), estimate.frames_since_detection);
+      EXPECT_EQ(j["mask_iou"].get<double>(), estimate.mask_iou);
+      EXPECT_EQ(j["identity_searched"].get<bool>(), false);
+      EXPECT_EQ(j["candidates_tried"].get<int>(), estimate.candidates_tried);
+      if (estimate.status == pose_estimate_t::STATUS_OK) {
+        EXPECT_GT(estimate.mask_iou, 0.0);
+        EXPECT_EQ(estimate.candidates_tried, 1);
+      }
       // The service tracks by default: every solved instance has a track.
       if (estimate.status == pose_estimate_t::STATUS_OK) {
         EXPECT_GT(estimate.track_id, 0);

@@ -194,6 +194,12 @@ TEST(EstimatesJsonLines, OneLinePerEstimateOfEveryAnsweredFrame) {
   cut.frames_since_detection = 2;
   frames[0].answer.estimates[1].mode = pose_estimate_t::MODE_DETECTED;
   frames[0].answer.estimates[1].track_id = -1;
+  // The first was asked without an object id: the identity answer; the failure was not.
+  cut.mask_iou = 0.8;
+  cut.identity_searched = 1;
+  cut.runner_up_object_id = "obj_000005";
+  cut.runner_up_object_score = 0.3;
+  cut.candidates_tried = 2;
   frames[0].answer.num_estimates = 2;
   frames[1].answered = true;  // rejected as a whole: no estimates to list
   frames[1].answer.status = pose_array_t::STATUS_BAD_FRAME;
@@ -233,6 +239,16 @@ TEST(EstimatesJsonLines, OneLinePerEstimateOfEveryAnsweredFrame) {
   EXPECT_EQ(parsed[1]["status"], "no_solution");
   EXPECT_EQ(parsed[1]["message"], "no pose");
   EXPECT_EQ(parsed[1]["gt_index"], 3);
+  EXPECT_DOUBLE_EQ(parsed[0]["mask_iou"].get<double>(), 0.8);
+  EXPECT_EQ(parsed[0]["identity_searched"], true);
+  EXPECT_EQ(parsed[0]["runner_up_object_id"], "obj_000005");
+  EXPECT_DOUBLE_EQ(parsed[0]["runner_up_object_score"].get<double>(), 0.3);
+  EXPECT_EQ(parsed[0]["candidates_tried"], 2);
+  EXPECT_DOUBLE_EQ(parsed[1]["mask_iou"].get<double>(), 0.0);
+  EXPECT_EQ(parsed[1]["identity_searched"], false);
+  EXPECT_TRUE(parsed[1]["runner_up_object_id"].is_null());
+  EXPECT_TRUE(parsed[1]["runner_up_object_score"].is_null());
+  EXPECT_EQ(parsed[1]["candidates_tried"], 0);
   EXPECT_EQ(EstimatesJsonLines({}), "");
 }
 

@@ -32,6 +32,11 @@ pose_estimate_t EstimateFor(const DecodedInstance& instance) {
   estimate.mode = pose_estimate_t::MODE_DETECTED;
   estimate.track_id = -1;
   estimate.frames_since_detection = 0;
+  // Nothing solved yet: no mask IoU, no candidate tried.
+  estimate.mask_iou = 0.0;
+  estimate.identity_searched = instance.identity_unknown();
+  estimate.runner_up_object_score = 0.0;
+  estimate.candidates_tried = 0;
   return estimate;
 }
 
@@ -70,6 +75,8 @@ pose_estimate_t MakePoseEstimate(const DecodedInstance& instance, const PoseResu
   }
   estimate.hypotheses = result.stages.kept_hypotheses;
   estimate.solve_time_s = result.stages.total_ms * 1e-3;
+  estimate.identity_searched = false;
+  estimate.candidates_tried = 1;
   if (!result.success) return estimate;
 
   SetPose(result.cam_from_object, estimate.position, estimate.orientation);
@@ -88,6 +95,23 @@ pose_estimate_t MakePoseEstimate(const DecodedInstance& instance, const PoseResu
   }
   estimate.appearance_valid = result.appearance_valid;
   if (result.appearance_valid) estimate.appearance_agreement = result.appearance_agreement;
+  estimate.mask_iou = result.mask_iou;
+  return estimate;
+}
+
+pose_estimate_t MakeIdentifiedEstimate(const DecodedInstance& instance,
+                                       const IdentifiedPose& identified) {
+  DecodedInstance chosen = instance;
+  chosen.object_id = identified.object_id;
+  pose_estimate_t estimate = MakePoseEstimate(chosen, identified.result);
+  estimate.identity_searched = true;
+  estimate.candidates_tried = static_cast<int32_t>(identified.candidates.size());
+  // The search solved every candidate: its time is the instance's solver time.
+  estimate.solve_time_s = identified.total_ms * 1e-3;
+  if (estimate.status == pose_estimate_t::STATUS_OK && !identified.runner_up_id.empty()) {
+    estimate.runner_up_object_id = identified.runner_up_id;
+    estimate.runner_up_object_score = identified.runner_up_score;
+  }
   return estimate;
 }
 

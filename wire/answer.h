@@ -11,6 +11,7 @@
 #include "g6d/pose_array_t.hpp"
 #include "g6d/pose_estimate_t.hpp"
 #include "g6d/rgbd_frame_t.hpp"
+#include "solver/identify.h"
 #include "solver/pipeline.h"
 #include "track/tracker.h"
 #include "wire/frame_codec.h"
@@ -43,7 +44,17 @@ using Timings = std::vector<std::pair<std::string, double>>;
 /// appearance agreement (when appearance_valid). A failure carries only the status,
 /// message, hypotheses and solver time: flags false, numbers 0, identity quaternions.
 /// Mode MODE_DETECTED, track_id -1, frames_since_detection 0 (an answer without tracking).
+/// mask_iou is PoseResult::mask_iou (0 on failure); identity_searched false, no runner-up
+/// identity ("", 0), candidates_tried 1.
 pose_estimate_t MakePoseEstimate(const DecodedInstance& instance, const PoseResult& result);
+
+/// The estimate of an instance of unknown identity: MakePoseEstimate of the chosen
+/// object's result with object_id the chosen object ("" when no candidate succeeded), the
+/// whole search's time as solve_time_s, identity_searched true, candidates_tried the
+/// candidates considered and, on success, the runner-up identity and its S_A (when one
+/// succeeded).
+pose_estimate_t MakeIdentifiedEstimate(const DecodedInstance& instance,
+                                       const IdentifiedPose& identified);
 
 /// MakePoseEstimate of `answer.result`, with the answer's mode, track_id and
 /// frames_since_detection (Tracker::Update sets them); the solver time of an answer of a
@@ -56,7 +67,8 @@ int8_t ModeOnWire(AnswerMode mode);
 
 /// An estimate that carries only a failure: identity pose, score 2, confidence 0, no
 /// runner-up (identity quaternion, S 0), flags false, appearance agreement 0, mode
-/// MODE_DETECTED, track_id -1, frames_since_detection 0.
+/// MODE_DETECTED, track_id -1, frames_since_detection 0, mask_iou 0, identity_searched
+/// true exactly when the request had no object id, no runner-up identity, candidates_tried 0.
 pose_estimate_t MakeFailedEstimate(const DecodedInstance& instance, int8_t status,
                                    const std::string& message);
 

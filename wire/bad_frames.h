@@ -13,6 +13,7 @@
 ///    under load it can be replaced there, a counted drop) and is answered STATUS_OK with
 ///    every estimate failed.
 
+#include <algorithm>
 #include <cstdint>
 #include <limits>
 #include <opencv2/core.hpp>
@@ -160,12 +161,47 @@ inline std::vector<BadCase> MakeBadCases(const rgbd_frame_t& good,
       pose_estimate_t::STATUS_BAD_INPUT);
   f = good;
   f.labels = empty_labels;
-  for (instance_t& instance : f.instances) instance.label = 0;
-  add("instance label 0 (background)", f, "label must be > 0", kOk,
+  for (instance_t& instance : f.instances) instance.label = -3;
+  add("negative instance label", f, "label must be > 0 for a mask, or 0 with a box", kOk,
       pose_estimate_t::STATUS_BAD_INPUT);
   f = good;
-  for (instance_t& instance : f.instances) instance.object_id.clear();
-  add("empty object id", f, "empty object id", kOk, pose_estimate_t::STATUS_BAD_INPUT);
+  f.labels = empty_labels;
+  for (instance_t& instance : f.instances) instance.label = 0;
+  add("instance label 0 (no mask) and no box", f, "no mask and no box", kOk,
+      pose_estimate_t::STATUS_BAD_INPUT);
+  // Boxes (label 0): one wholly outside the image, one of no height.
+  f = good;
+  f.labels = empty_labels;
+  for (instance_t& instance : f.instances) {
+    instance.label = 0;
+    const int32_t box[4] = {good.color.width + 5, 10, 40, 30};
+    std::copy(box, box + 4, instance.box);
+  }
+  add("box outside the image", f, "lies outside the", kOk, pose_estimate_t::STATUS_BAD_INPUT);
+  f = good;
+  f.labels = empty_labels;
+  for (instance_t& instance : f.instances) {
+    instance.label = 0;
+    const int32_t box[4] = {10, 10, 40, 0};
+    std::copy(box, box + 4, instance.box);
+  }
+  add("box of no height", f, "box height must be > 0", kOk, pose_estimate_t::STATUS_BAD_INPUT);
+  // Identity unknown (no object id): a candidate without a cache, an empty candidate id.
+  f = good;
+  for (instance_t& instance : f.instances) {
+    instance.object_id.clear();
+    instance.candidate_ids = {"obj_999998"};
+    instance.num_candidate_ids = 1;
+  }
+  add("unknown candidate id", f, "candidate 'obj_999998' has no template cache", kOk,
+      pose_estimate_t::STATUS_UNKNOWN_OBJECT);
+  f = good;
+  for (instance_t& instance : f.instances) {
+    instance.object_id.clear();
+    instance.candidate_ids = {""};
+    instance.num_candidate_ids = 1;
+  }
+  add("empty candidate id", f, "candidate_ids[0] is empty", kOk, pose_estimate_t::STATUS_BAD_INPUT);
   f = good;
   for (instance_t& instance : f.instances) instance.object_id = "obj_999999";
   add("unknown object id", f, "no template cache for object id 'obj_999999'", kOk,

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <limits>
 #include <opencv2/imgproc.hpp>
+#include <set>
 #include <sstream>
 
 #include "core/camera.h"
@@ -104,15 +105,26 @@ std::string CheckEncodedRgbdFrame(const void* data, int64_t size) {
   }
   int32_t num_instances = 0;
   if (!reader.I32(&num_instances)) return "truncated at num_instances";
-  // An encoded instance takes at least 4 + 1 (object id) + 3 x 4 bytes.
-  constexpr int64_t kMinInstanceBytes = 17;
+  // An encoded instance takes at least 4 + 1 (object id) + 3 x 4 (label, score, gt_index)
+  // + 4 x 4 (box) + 4 (num_candidate_ids) bytes; a candidate id at least 4 + 1.
+  constexpr int64_t kMinInstanceBytes = 37;
+  constexpr int64_t kMinStringBytes = 5;
   if (num_instances < 0 || num_instances * kMinInstanceBytes > reader.remaining()) {
     return "num_instances declares " + std::to_string(num_instances) + " instances but only " +
            std::to_string(reader.remaining()) + " bytes remain";
   }
   for (int32_t i = 0; i < num_instances; ++i) {
+    const std::string where = "instances[" + std::to_string(i) + "]";
     if (std::string e = CheckString(&reader, "instances[].object_id"); !e.empty()) return e;
-    if (!reader.Skip(3 * 4)) return "truncated at instances[" + std::to_string(i) + "]";
+    int32_t num_candidates = 0;
+    if (!reader.Skip(3 * 4 + 4 * 4) || !reader.I32(&num_candidates)) return "truncated at " + where;
+    if (num_candidates < 0 || num_candidates * kMinStringBytes > reader.remaining()) {
+      return where + ".num_candidate_ids declares " + std::to_string(num_candidates) +
+             " ids but only " + std::to_string(reader.remaining()) + " bytes remain";
+    }
+    for (int32_t c = 0; c < num_candidates; ++c) {
+      if (std::string e = CheckString(&reader, "instances[].candidate_ids[]"); !e.empty()) return e;
+    }
   }
   return {};
 }
@@ -167,7 +179,10 @@ DecodedFrame DecodeFrame(const rgbd_frame_t& message, const DecodeLimits& limits
     G6D_THROW("depth: pixel format " << PixelFormatName(message.depth.pixel_format)
                                      << " is not a depth format (DEPTH_U16 or DEPTH_F32)");
   }
-  if (message.labels.pixel_format != image_t::FORMAT_LABEL_U8 &&
+  // A label plane of no pixels and no bytes: no label image (box instances only).
+  const bool no_label_image =
+      message.labels.width == 0 && message.labels.height == 0 && message.labels.data.empty();
+  if (!no_label_image && message.labels.pixel_format != image_t::FORMAT_LABEL_U8 &&
       message.labels.pixel_format != image_t::FORMAT_LABEL_U16) {
     G6D_THROW("labels: pixel format " << PixelFormatName(message.labels.pixel_format)
                                       << " is not a label format (LABEL_U8 or LABEL_U16)");
@@ -188,6 +203,7 @@ DecodedFrame DecodeFrame(const rgbd_frame_t& message, const DecodeLimits& limits
   }
   for (const auto& [plane, name] : {std::pair<const image_t*, const char*>{&message.depth, "depth"},
                                     {&message.labels, "labels"}}) {
+    if (plane == &message.labels && no_label_image) continue;
     if (plane->width != message.color.width || plane->height != message.color.height) {
       G6D_THROW(name << ": size " << plane->width << "x" << plane->height << " differs from color "
                      << message.color.width << "x" << message.color.height);
@@ -235,7 +251,8 @@ DecodedFrame DecodeFrame(const rgbd_frame_t& message, const DecodeLimits& limits
   if (const std::string error = out.frame.camera.Check(); !error.empty())
     G6D_THROW("intrinsics: " << error);
 
-  out.labels = DecodeImage(message.labels, "labels", limits);
+  out.labels = no_label_image ? cv::Mat(cv::Mat::zeros(out.frame.rgb.size(), CV_8UC1))
+                              : DecodeImage(message.labels, "labels", limits);
   // Pixel count of every label value (at most 65536 bins).
   const bool wide = out.labels.type() == CV_16UC1;
   std::vector<int> counts(wide ? 65536 : 256, 0);
@@ -268,6 +285,7 @@ DecodedFrame DecodeFrame(const rgbd_frame_t& message, const DecodeLimits& limits
   }
 
   out.instances.reserve(message.instances.size());
+  const cv::Rect image_rect(0, 0, out.labels.cols, out.labels.rows);
   for (size_t i = 0; i < message.instances.size(); ++i) {
     const instance_t& request = message.instances[i];
     DecodedInstance instance;
@@ -275,20 +293,73 @@ DecodedFrame DecodeFrame(const rgbd_frame_t& message, const DecodeLimits& limits
     instance.label = request.label;
     instance.score = request.score;
     instance.gt_index = request.gt_index;
+    const std::string name =
+        "instance " + std::to_string(i) +
+        (request.object_id.empty() ? std::string(" (identity unknown)") : " (" + request.object_id + ")");
     std::ostringstream error;
+    bool refused = false;  // a candidate list that cannot be used
     if (request.object_id.empty()) {
-      error << "instance " << i << ": empty object id";
-    } else if (request.label <= 0) {
-      error << "instance " << i << " (" << request.object_id << "): label must be > 0 (got "
-            << request.label << "; 0 is background)";
-    } else if (request.label >= static_cast<int>(counts.size()) || counts[request.label] == 0) {
-      error << "instance " << i << " (" << request.object_id << "): label " << request.label
-            << " has no pixels in the label image";
+      // Identity unknown: the candidates, each once (the service checks they are loaded).
+      if (request.num_candidate_ids != static_cast<int64_t>(request.candidate_ids.size()) ||
+          request.num_candidate_ids < 0) {
+        error << name << ": num_candidate_ids " << request.num_candidate_ids << " but "
+              << request.candidate_ids.size() << " candidate ids";
+        refused = true;
+      }
+      // A set, not a scan of the list: a hostile message may list many thousands of ids.
+      std::set<std::string> seen;
+      for (size_t c = 0; c < request.candidate_ids.size() && !refused; ++c) {
+        const std::string& id = request.candidate_ids[c];
+        if (id.empty()) {
+          error << name << ": candidate_ids[" << c << "] is empty";
+          refused = true;
+        } else if (seen.insert(id).second) {
+          instance.candidate_ids.push_back(id);
+        }
+      }
+    }
+    if (refused) {
+      // The error says why.
+    } else if (request.label < 0) {
+      error << name << ": label must be > 0 for a mask, or 0 with a box (got " << request.label << ")";
+    } else if (request.label > 0) {
+      // A label wins over a box: the box is not read.
+      if (request.label >= static_cast<int>(counts.size()) || counts[request.label] == 0) {
+        error << name << ": label " << request.label << " has no pixels in the label image";
+      } else {
+        instance.mask_pixels = counts[request.label];
+        cv::compare(out.labels, cv::Scalar(request.label), instance.mask, cv::CMP_EQ);
+      }
     } else {
-      instance.mask_pixels = counts[request.label];
-      cv::compare(out.labels, cv::Scalar(request.label), instance.mask, cv::CMP_EQ);
+      // Label 0: the box is the mask. 64-bit sums: x + width may overflow an int32.
+      const int64_t x = request.box[0], y = request.box[1], width = request.box[2],
+                    height = request.box[3];
+      if (width <= 0) {
+        error << name << ": no mask and no box (label 0 means no mask: give a box, width > 0)";
+      } else if (height <= 0) {
+        error << name << ": box height must be > 0 (got " << height << ")";
+      } else if (x >= image_rect.width || y >= image_rect.height || x + width <= 0 ||
+                 y + height <= 0) {
+        error << name << ": box (x " << x << ", y " << y << ", width " << width << ", height "
+              << height << ") lies outside the " << image_rect.width << "x" << image_rect.height
+              << " image";
+      } else {
+        const int64_t x0 = std::max<int64_t>(x, 0), y0 = std::max<int64_t>(y, 0);
+        const int64_t x1 = std::min<int64_t>(x + width, image_rect.width);
+        const int64_t y1 = std::min<int64_t>(y + height, image_rect.height);
+        instance.box = cv::Rect(static_cast<int>(x0), static_cast<int>(y0),
+                                static_cast<int>(x1 - x0), static_cast<int>(y1 - y0));
+        instance.mask = cv::Mat::zeros(image_rect.size(), CV_8UC1);
+        instance.mask(instance.box).setTo(255);
+        instance.mask_pixels = instance.box.area();
+      }
     }
     instance.error = error.str();
+    if (!instance.error.empty()) {
+      instance.mask.release();
+      instance.mask_pixels = 0;
+      instance.box = cv::Rect();
+    }
     out.instances.push_back(std::move(instance));
   }
   return out;

@@ -38,17 +38,35 @@ bool PeekRgbdFrameIds(const void* data, int64_t size, int64_t* utime, int64_t* s
 /// truncated, bad declared sizes).
 rgbd_frame_t DecodeRgbdFrameMessage(const void* data, int64_t size);
 
-/// One requested instance after decoding: its identity and its mask.
+/// One requested instance after decoding: its identity (or candidates) and its mask.
+///
+/// Where the object is. A label > 0 names its pixels in the label image (the mask); a
+/// label of 0 with a box (width > 0) makes the mask the filled box, clipped to the image
+/// (the solver's default MaskTrust::kDepth then removes the table and the background from
+/// it); a label > 0 wins over a box, which is then ignored. Which object: object_id, or,
+/// when it is empty, one of candidate_ids (every loaded object when none are listed),
+/// chosen by the service with EstimatePoseOfUnknownObject.
 struct DecodedInstance {
-  std::string object_id;  ///< as in the request
+  std::string object_id;  ///< as in the request; empty = identity unknown
   int32_t label = 0;      ///< as in the request
   float score = 0.0f;     ///< detection score, as in the request
   int32_t gt_index = -1;  ///< as in the request
-  cv::Mat mask;           ///< CV_8U frame size, 255 where labels == label (empty when error set)
-  int mask_pixels = 0;    ///< pixels carrying this label
-  /// Empty when the instance can be solved; else why not (label <= 0, label has no
-  /// pixels, empty object id). The frame's other instances are still usable.
+  /// The request's box clipped to the image, pixels, when the mask is that box (label 0);
+  /// empty (0 x 0) otherwise.
+  cv::Rect box;
+  /// Identity unknown: the candidates as requested, each once, in request order (empty =
+  /// every loaded object). Empty when object_id is set.
+  std::vector<std::string> candidate_ids;
+  cv::Mat mask;           ///< CV_8U frame size, 255 where labels == label or inside box (empty when error set)
+  int mask_pixels = 0;    ///< pixels of the mask
+  /// Empty when the instance can be solved; else why not (label < 0, label has no
+  /// pixels, label 0 without a box, a box of no size or outside the image, an empty
+  /// candidate id). The frame's other instances are still usable. Whether the object or
+  /// the candidates have template caches is the service's to check.
   std::string error;
+
+  /// True when the request named no object: the service searches the candidates.
+  bool identity_unknown() const { return object_id.empty(); }
 };
 
 /// A validated, decoded frame: what the solver needs.
@@ -67,8 +85,9 @@ struct DecodedFrame {
 /// a plane that does not decode or has the wrong format ("color: ...", "depth: ...",
 /// "labels: ..."), planes of different sizes, too many instances, or a label value in
 /// the label image that no instance names ("labels: label 7 (1234 pixels) is named by no
-/// instance"). Problems of a single instance (label with no pixels, label <= 0, empty
-/// object id) are reported in that DecodedInstance's `error` instead.
+/// instance"). A label plane of 0 x 0 pixels (no bytes, any format) means "no label image":
+/// every instance then needs a box. Problems of a single instance (see
+/// DecodedInstance::error) are reported in that DecodedInstance's `error` instead.
 DecodedFrame DecodeFrame(const rgbd_frame_t& message, const DecodeLimits& limits = {});
 
 }  // namespace g6d

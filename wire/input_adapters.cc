@@ -267,7 +267,7 @@ rgbd_frame_t MakeFrame(const cv::Mat& rgb, const cv::Mat& depth, const cv::Mat& 
   }
   frame.labels = EncodeImage(labels, image_t::FORMAT_LABEL_U16, image_t::COMPRESSION_NONE);
   for (int32_t label : present) {
-    instance_t instance;
+    instance_t instance{};  // {}: no box, no candidates (lcm-gen leaves members uninitialized)
     instance.object_id = options.label_objects.at(label);
     instance.label = label;
     instance.score = 1.0f;

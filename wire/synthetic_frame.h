@@ -42,7 +42,7 @@ inline rgbd_frame_t MakeRgbdFrame(const SyntheticView& view, int64_t seq,
   cv::Mat labels;
   cv::threshold(view.mask, labels, 0, 1, cv::THRESH_BINARY);
   frame.labels = EncodeImage(labels, image_t::FORMAT_LABEL_U8, image_t::COMPRESSION_ZSTD);
-  instance_t instance;
+  instance_t instance{};  // {}: no box, no candidates (lcm-gen leaves members uninitialized)
   instance.object_id = object_id;
   instance.label = 1;
   instance.score = 1.0f;

@@ -33,6 +33,11 @@ void CheckDecodedFrame(const g6d::rgbd_frame_t& message, const g6d::DecodedFrame
       G6D_CHECK(instance.mask.type() == CV_8UC1 && instance.mask.size() == size);
       G6D_CHECK(instance.mask_pixels > 0 &&
                 cv::countNonZero(instance.mask) == instance.mask_pixels);
+      // A box mask is its box, clipped to the image.
+      if (!instance.box.empty()) {
+        G6D_CHECK((instance.box & cv::Rect(cv::Point(), size)) == instance.box);
+        G6D_CHECK(instance.box.area() == instance.mask_pixels);
+      }
     } else {
       G6D_CHECK(instance.mask.empty());
     }

@@ -10,6 +10,7 @@
 #include <unistd.h>
 #include <zstd.h>
 
+#include <algorithm>
 #include <array>
 #include <cctype>
 #include <cmath>
@@ -204,7 +205,7 @@ rgbd_frame_t MakeFrame(const PlaneKind& color, const PlaneKind& depth, const Pla
   frame.labels = EncodeImage(MakePlane(labels.format), labels.format, labels.compression);
   for (const auto& [object_id, label] : {std::pair<const char*, int32_t>{"obj_000001", 1},
                                          {"obj_000005", SecondLabel(labels.format)}}) {
-    instance_t instance;
+    instance_t instance{};  // {}: no box, no candidates (lcm-gen leaves members uninitialized)
     instance.object_id = object_id;
     instance.label = label;
     instance.score = 0.9f;
@@ -267,6 +268,31 @@ void MakeFrameSeeds(const fs::path& fuzz_dir) {
   extra.instances.push_back(missing);
   extra.num_instances = 3;
   corpus.Add("valid_instance_label_without_pixels", Encode(extra));
+
+  // Where the object is and which it is (instance_t's box and candidate_ids): a box with
+  // no label image at all, an instance of unknown identity with candidates, and near
+  // misses (a box outside the image, an empty candidate id).
+  rgbd_frame_t boxes = base;
+  boxes.labels = image_t{};  // 0 x 0: no label image
+  boxes.labels.pixel_format = image_t::FORMAT_LABEL_U8;
+  for (instance_t& instance : boxes.instances) {
+    instance.label = 0;
+    const int32_t box[4] = {instance.gt_index == 0 ? 2 : 20, 3, 9, 7};
+    std::copy(box, box + 4, instance.box);
+  }
+  boxes.instances[1].object_id.clear();
+  boxes.instances[1].candidate_ids = {"obj_000001", "obj_000005"};
+  boxes.instances[1].num_candidate_ids = 2;
+  corpus.Add("valid_boxes_no_label_image_unknown_identity", Encode(boxes));
+  rgbd_frame_t unknown = base;
+  unknown.instances[0].object_id.clear();
+  corpus.Add("valid_label_unknown_identity_every_object", Encode(unknown));
+  rgbd_frame_t outside = boxes;
+  outside.instances[0].box[0] = kWidth + 3;
+  corpus.Add("near_box_outside_the_image", Encode(outside));
+  rgbd_frame_t empty_candidate = boxes;
+  empty_candidate.instances[1].candidate_ids[1].clear();
+  corpus.Add("near_empty_candidate_id", Encode(empty_candidate));
 
   rgbd_frame_t zero_fx = base;
   zero_fx.fx = 0.0;
