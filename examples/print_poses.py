@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Prints the poses g6d-service answers with: object id, status, cam_from_object
-(position in metres, quaternion w x y z), S_A (lower is better), confidence, and how the
-answer was made (detected / tracked / redetected, the track id).
+(position in metres, quaternion w x y z), S_A (lower is better), confidence, the mask IoU,
+how the answer was made (detected / tracked / redetected, the track id) and, for a request
+without an object id, the identity search (candidates tried, the runner-up identity).
 
 Two sources, one decoding (the pure-Python classes lcm-gen makes from lcmtypes/; they
 decode without the lcm module):
@@ -85,6 +86,15 @@ def format_track(estimate):
     return f"{mode} track {estimate.track_id}{since}"
 
 
+def format_identity(estimate):
+    """The identity search of a request without an object id ("" for a request with one)."""
+    if not estimate.identity_searched:
+        return ""
+    runner_up = (f", runner-up {estimate.runner_up_object_id} S {estimate.runner_up_object_score:.4f}"
+                 if estimate.runner_up_object_id else ", no runner-up")
+    return f"  identity chosen of {estimate.candidates_tried}{runner_up}"
+
+
 def format_answer(answer):
     """The lines printed for one decoded g6d.pose_array_t."""
     lines = [f"frame seq {answer.seq} utime {answer.source_utime} camera '{answer.camera_id}'"
@@ -93,15 +103,16 @@ def format_answer(answer):
     for estimate in answer.estimates:
         status = STATUS_NAMES.get(estimate.status, f"unknown({estimate.status})")
         if estimate.status != 0:
-            lines.append(f"  {estimate.object_id} label {estimate.label}: {status}: "
-                         f"{estimate.message}")
+            object_id = estimate.object_id or "(identity unknown)"
+            lines.append(f"  {object_id} label {estimate.label}: {status}: {estimate.message}")
             continue
         x, y, z = estimate.position
         qw, qx, qy, qz = estimate.orientation
         lines.append(f"  {estimate.object_id} label {estimate.label}: ok "
                      f"t = [{x:.4f} {y:.4f} {z:.4f}] m  q = [{qw:.5f} {qx:.5f} {qy:.5f} {qz:.5f}]"
                      f"  S_A = {estimate.score:.4f}  confidence = {estimate.confidence:.3f}"
-                     f"  ({format_track(estimate)})")
+                     f"  ({format_track(estimate)})  mask IoU = {estimate.mask_iou:.3f}"
+                     f"{format_identity(estimate)}")
     return lines
 
 

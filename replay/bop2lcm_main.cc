@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
       "g6d-bop2lcm: a BOP scene (rgb/, depth/, mask_visib/, scene_gt.json, scene_camera.json) "
       "-> an LCM log of g6d_rgbd_frame_t, one event per image"};
   std::string dataset_dir, frames_text, targets_file, color = "png", out, as = "g6d";
+  std::string instances = "label", identity = "given";
   int scene_id = -1;
   bool all_instances = false;
   g6d::BopToLcmOptions options;
@@ -45,6 +46,19 @@ int main(int argc, char** argv) {
                  "<out>.yaml, the g6d-service options for the log, and for drake/bot_core "
                  "<out>.ids.csv, the frames' scene/image ids for g6d-replay")
       ->capture_default_str();
+  app.add_option("--instances", instances,
+                 "where each instance is: label (its GT visible mask in the label image) or box "
+                 "(only the bounding box of that mask grown by --box-margin-px and clipped to the "
+                 "image, no label image: g6d-bench-dataset --degrade-masks box's masks)")
+      ->capture_default_str();
+  app.add_option("--box-margin-px", options.box_margin_px,
+                 "--instances box: margin around the mask's bounding box, pixels (as "
+                 "g6d-bench-dataset --degrade-px)")
+      ->capture_default_str();
+  app.add_option("--identity", identity,
+                 "given (object ids in the frames) or unknown (object ids left empty: the service "
+                 "chooses among every loaded object)")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -52,7 +66,15 @@ int main(int argc, char** argv) {
     if (!frames_text.empty()) options.frames = g6d::ParseFrameList(frames_text);
     options.targets_file = targets_file;
     options.use_targets = !all_instances;
+    options.instances = g6d::ParseInstanceInput(instances);
+    options.identity = g6d::ParseIdentityInput(identity);
     const g6d::InputType type = g6d::ParseInputType(as);
+    if (type != g6d::InputType::kG6d && (options.instances != g6d::InstanceInput::kLabel ||
+                                         options.identity != g6d::IdentityInput::kGiven)) {
+      G6D_THROW("--instances box and --identity unknown need --as g6d (" << as
+                                                                       << " frames carry only a label image "
+                                                                          "and a label -> object map)");
+    }
     // Foreign types: the g6d log first, then rewritten message by message.
     const std::string g6d_log = type == g6d::InputType::kG6d ? out : out + ".g6d.tmp";
     const g6d::BopToLcmReport report =
@@ -90,6 +112,11 @@ int main(int argc, char** argv) {
           "instance keeps them\n",
           static_cast<long long>(report.overlap_pixels));
     }
+    if (report.empty_masks > 0) {
+      std::fprintf(stderr,
+                   "g6d-bop2lcm: warning: %d instance(s) left out: no visible pixel, so no box\n",
+                   report.empty_masks);
+    }
     if (!report.success) {
       std::fprintf(stderr, "g6d-bop2lcm: %s\n", report.message.c_str());
       return 1;
@@ -97,10 +124,11 @@ int main(int argc, char** argv) {
     const std::string selection =
         report.targets_file.empty() ? "all GT instances" : "targets of " + report.targets_file;
     std::printf(
-        "g6d-bop2lcm: %s scene %d: %d of %d images, %d instances -> %s (%.1f MB, %s colour, "
-        "channel %s, as %s; service options %s.yaml) in %.1f s; %s\n",
+        "g6d-bop2lcm: %s scene %d: %d of %d images, %d instances (%s, identity %s) -> %s (%.1f "
+        "MB, %s colour, channel %s, as %s; service options %s.yaml) in %.1f s; %s\n",
         report.source.c_str(), scene_id, report.frames_written, report.images_in_scene,
-        report.instances_written, out.c_str(),
+        report.instances_written, instances == "box" ? "boxes" : "labels", identity.c_str(),
+        out.c_str(),
         static_cast<double>(std::filesystem::file_size(out)) / 1e6, color.c_str(),
         options.channel.c_str(), as.c_str(), out.c_str(), report.seconds, selection.c_str());
     return 0;

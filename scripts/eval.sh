@@ -26,11 +26,15 @@
 #   TRACKING=off           g6d-service --tracking: BOP scores every image on its own, so the
 #                          images are detected one by one (on: tracks across a scene's images)
 #   EVAL_ARGS="..."        extra g6d-eval arguments, e.g. "--adds-ids 21"
+#   INSTANCES=label        g6d-bop2lcm --instances: label (GT visible masks) or box (their
+#                          bounding boxes only, as g6d-bench-dataset --degrade-masks box)
+#   IDENTITY=given         g6d-bop2lcm --identity: given, or unknown (no object ids: the
+#                          service chooses among every loaded object)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 if [[ $# -lt 1 || $# -gt 3 ]]; then
-  sed -n '2,28p' "$0" | sed 's/^# \{0,1\}//'
+  sed -n '2,32p' "$0" | sed 's/^# \{0,1\}//'
   exit 2
 fi
 DATASET="${1%/}"
@@ -129,7 +133,8 @@ failed=0
 first=1
 for scene in ${SCENES}; do
   log="${OUT}/logs/$(printf '%06d' "${scene}").lcmlog"
-  "${BIN_BOP2LCM}" --dataset "${DATASET}" --scene "${scene}" --color "${COLOR}" --out "${log}"
+  "${BIN_BOP2LCM}" --dataset "${DATASET}" --scene "${scene}" --color "${COLOR}" \
+    --instances "${INSTANCES:-label}" --identity "${IDENTITY:-given}" --out "${log}"
   wait_arg=()
   if [[ ${first} == 1 ]]; then
     wait_arg=(--wait-for-service-ms 120000)  # the service loads its caches first

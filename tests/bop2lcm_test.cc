@@ -15,6 +15,7 @@
 #include "bop_to_lcm.h"
 #include "core/error.h"
 #include "eval/bop.h"
+#include "eval/mask_degrade.h"
 #include "process_util.h"
 #include "wire/frame_codec.h"
 #include "synthetic_bop.h"
@@ -225,6 +226,90 @@ TEST_F(Bop2LcmSynthetic, JpegColourIsCloseAndTheRestExact) {
   cv::Mat difference;
   cv::absdiff(rgb, LoadBopRgb(scene, 0), difference);
   EXPECT_LT(cv::mean(difference)[0], 6.0) << "JPEG colour too far from the PNG";
+}
+
+// --instances box: each instance is the box of its visible mask (the mask the benchmark's
+// --degrade-masks box gives the solver) and the frame carries no label image; --identity
+// unknown leaves the object ids empty.
+TEST_F(Bop2LcmSynthetic, BoxesAndUnknownIdentity) {
+  const std::string log_path = test::TempDir("bop2lcm_boxes") + "/scene.lcmlog";
+  BopToLcmOptions options;
+  options.use_targets = false;
+  options.instances = InstanceInput::kBox;
+  options.identity = IdentityInput::kUnknown;
+  const BopToLcmReport report = WriteBopSceneLog(options, dataset_->root, 1, log_path);
+  ASSERT_TRUE(report.success) << report.message;
+  const std::vector<LoggedFrame> frames = ReadLog(log_path);
+  ASSERT_EQ(frames.size(), 3u);
+  const BopScene scene = LoadBopScene(dataset_->root, 1);
+  MaskDegradeOptions box_mode;
+  box_mode.mode = MaskDegradation::kBox;
+  box_mode.size_px = options.box_margin_px;
+  int boxes = 0;
+  for (const LoggedFrame& logged : frames) {
+    const rgbd_frame_t& message = logged.frame;
+    SCOPED_TRACE("image " + std::to_string(message.image_id));
+    EXPECT_EQ(message.labels.width, 0);
+    EXPECT_EQ(message.labels.height, 0);
+    EXPECT_TRUE(message.labels.data.empty());
+    const DecodedFrame decoded = DecodeFrame(message);
+    ASSERT_EQ(decoded.instances.size(), message.instances.size());
+    for (size_t i = 0; i < message.instances.size(); ++i) {
+      const instance_t& instance = message.instances[i];
+      EXPECT_EQ(instance.label, 0);
+      EXPECT_EQ(instance.object_id, "");
+      EXPECT_EQ(instance.num_candidate_ids, 0);
+      const cv::Mat mask = LoadBopMaskVisib(scene, message.image_id, instance.gt_index);
+      const cv::Rect expected = BoxOfMask(mask, options.box_margin_px);
+      EXPECT_EQ(cv::Rect(instance.box[0], instance.box[1], instance.box[2], instance.box[3]),
+                expected);
+      // The service's mask of this box is exactly the benchmark's.
+      ASSERT_TRUE(decoded.instances[i].error.empty()) << decoded.instances[i].error;
+      EXPECT_TRUE(decoded.instances[i].identity_unknown());
+      EXPECT_EQ(cv::countNonZero(decoded.instances[i].mask !=
+                                 DegradeMask(mask, {}, box_mode, /*instance_key=*/0)),
+                0);
+      ++boxes;
+    }
+  }
+  EXPECT_EQ(boxes, report.instances_written);
+  EXPECT_GT(boxes, 0);
+  EXPECT_EQ(report.instances_written + report.empty_masks, 6);  // 3 images x 2 GT instances
+  // A box with no margin is the mask's own bounding box.
+  cv::Mat mask = cv::Mat::zeros(20, 30, CV_8U);
+  mask(cv::Rect(4, 5, 6, 7)).setTo(255);
+  EXPECT_EQ(BoxOfMask(mask, 0), cv::Rect(4, 5, 6, 7));
+  EXPECT_EQ(BoxOfMask(mask, 6), cv::Rect(0, 0, 16, 18));  // clipped at the top-left corner
+  EXPECT_EQ(BoxOfMask(cv::Mat::zeros(20, 30, CV_8U), 6), cv::Rect());
+}
+
+TEST_F(Bop2LcmSynthetic, ToolWritesBoxesAndRefusesThemForForeignTypes) {
+  const std::string dir = test::TempDir("bop2lcm_tool_boxes");
+  const test::CommandResult ok = test::RunCommand(
+      kBop2Lcm + " --dataset " + dataset_->root +
+      " --scene 1 --instances box --identity unknown --box-margin-px 3 --out " + dir +
+      "/a.lcmlog");
+  ASSERT_EQ(ok.exit_code, 0) << ok.output;
+  EXPECT_THAT(ok.output, HasSubstr("3 instances (boxes, identity unknown)"));
+  const std::vector<LoggedFrame> frames = ReadLog(dir + "/a.lcmlog");
+  ASSERT_EQ(frames.size(), 2u);
+  const BopScene scene = LoadBopScene(dataset_->root, 1);
+  const instance_t& instance = frames[0].frame.instances[0];
+  EXPECT_EQ(instance.label, 0);
+  EXPECT_EQ(instance.object_id, "");
+  EXPECT_EQ(cv::Rect(instance.box[0], instance.box[1], instance.box[2], instance.box[3]),
+            BoxOfMask(LoadBopMaskVisib(scene, frames[0].frame.image_id, instance.gt_index), 3));
+
+  const test::CommandResult foreign = test::RunCommand(
+      kBop2Lcm + " --dataset " + dataset_->root + " --scene 1 --instances box --as drake --out " +
+      dir + "/b.lcmlog");
+  EXPECT_EQ(foreign.exit_code, 2);
+  EXPECT_THAT(foreign.output, HasSubstr("--instances box and --identity unknown need --as g6d"));
+  const test::CommandResult bad = test::RunCommand(kBop2Lcm + " --dataset " + dataset_->root +
+                                                   " --scene 1 --instances mask --out " + dir +
+                                                   "/c.lcmlog");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_THAT(bad.output, HasSubstr("'mask' is not one of label, box"));
 }
 
 TEST_F(Bop2LcmSynthetic, ToolWritesALogAndNamesBadArguments) {
