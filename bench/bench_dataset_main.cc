@@ -48,6 +48,7 @@ struct Tally {
   int search_failures = 0, score_failures = 0;  // misses with S(GT) < S_A / S(GT) >= S_A (--score-gt)
   int right_identity = 0;                        // --identity unknown: the true object was chosen
   std::map<std::string, int> chosen_instead;     // --identity unknown: wrong choices by object id
+  int ambiguous = 0, wrong_ambiguous = 0;        // --identity unknown: flagged ambiguous, of them wrong
 };
 
 double Mean(const std::vector<double>& values) {
@@ -371,6 +372,8 @@ int main(int argc, char** argv) {
         };
         Tally& tally = tallies[target.obj_id];
         ++tally.total;
+        tally.ambiguous += identified.ambiguous ? 1 : 0;
+        tally.wrong_ambiguous += identified.ambiguous && !right_identity ? 1 : 0;
         if (right_identity) {
           ++tally.right_identity;
         } else {
@@ -478,7 +481,8 @@ int main(int argc, char** argv) {
           std::fprintf(stderr, " | identity %s%s", identified.object_id.empty() ? "(none)" : identified.object_id.c_str(),
                        right_identity ? "" : " WRONG");
           if (!identified.runner_up_id.empty()) {
-            std::fprintf(stderr, ", runner-up %s S %.3f", identified.runner_up_id.c_str(), identified.runner_up_score);
+            std::fprintf(stderr, ", runner-up %s S %.3f%s", identified.runner_up_id.c_str(), identified.runner_up_score,
+                         identified.ambiguous ? " (ambiguous)" : "");
           }
           std::fprintf(stderr, ", %zu candidates (%d screened out) %.0f ms", identified.candidates.size(),
                        identified.screened_out, identified.total_ms);
@@ -554,18 +558,23 @@ int main(int argc, char** argv) {
       std::printf("\nidentity unknown: %zu candidates per instance (%zu of the dataset, %zu extra), pre-screen %s\n",
                   candidates.size(), candidates.size() - extra_banks.size(), extra_banks.size(),
                   identify_options.prescreen ? "on" : "off");
-      std::printf("| object | n | right identity (%%) | chosen instead |\n|---|---|---|---|\n");
-      int right = 0;
+      std::printf("| object | n | right identity (%%) | chosen instead | ambiguous (of them wrong) |\n"
+                  "|---|---|---|---|---|\n");
+      int right = 0, ambiguous = 0, wrong_ambiguous = 0;
       for (const auto& [obj_id, tally] : tallies) {
         std::string instead;
         for (const auto& [id, count] : tally.chosen_instead) {
           instead += (instead.empty() ? "" : ", ") + id + " x" + std::to_string(count);
         }
-        std::printf("| %s | %d | %.1f | %s |\n", g6d::BopObjectName(obj_id).c_str(), tally.total,
-                    100.0 * tally.right_identity / std::max(1, tally.total), instead.c_str());
+        std::printf("| %s | %d | %.1f | %s | %d (%d) |\n", g6d::BopObjectName(obj_id).c_str(), tally.total,
+                    100.0 * tally.right_identity / std::max(1, tally.total), instead.c_str(), tally.ambiguous,
+                    tally.wrong_ambiguous);
         right += tally.right_identity;
+        ambiguous += tally.ambiguous;
+        wrong_ambiguous += tally.wrong_ambiguous;
       }
-      std::printf("| **identity** | %d | %.1f | |\n", all.total, 100.0 * right / std::max(1, all.total));
+      std::printf("| **identity** | %d | %.1f | | %d (%d) |\n", all.total, 100.0 * right / std::max(1, all.total),
+                  ambiguous, wrong_ambiguous);
       std::printf("pre-screen: %d of %d candidate solves skipped; the true object screened out %d times\n",
                   screened_count, candidate_count, true_screened);
       std::printf("time per candidate (ms): mean %.1f, p50 %.1f; per solved candidate mean %.1f, p50 %.1f; per "

@@ -135,6 +135,7 @@ TEST_F(IdentifyTest, ChoosesTheRenderedObjectAndReportsTheRunnerUp) {
       if (!answer.runner_up_id.empty()) {
         EXPECT_GE(answer.runner_up_score, answer.result.score);
       }
+      EXPECT_FALSE(answer.ambiguous);  // the shapes and prints differ clearly
       for (const IdentityCandidate& candidate : answer.candidates) {
         if (candidate.success) {
           EXPECT_GE(candidate.score, answer.result.score) << candidate.object_id;
@@ -166,6 +167,7 @@ TEST_F(IdentifyTest, WithoutThePrescreenEveryCandidateIsSolvedAndTheOtherObjectI
     EXPECT_EQ(answer.runner_up_id, "box");
     EXPECT_EQ(answer.runner_up_score, answer.candidates[0].score);
     EXPECT_GE(answer.runner_up_score, answer.result.score);
+    EXPECT_EQ(answer.ambiguous, answer.runner_up_score - answer.result.score <= QuickSolver().ambiguity_margin);
   }
 }
 

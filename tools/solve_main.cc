@@ -207,8 +207,8 @@ int main(int argc, char** argv) {
       std::printf("identity    %zu candidates in %.1f ms", identified.candidates.size(), identified.total_ms);
       if (chosen != nullptr) std::printf(": %s S %.4f", chosen->object_id.c_str(), result.score);
       if (!identified.runner_up_id.empty()) {
-        std::printf(", runner-up %s S %.4f (+%.4f)", identified.runner_up_id.c_str(), identified.runner_up_score,
-                    identified.runner_up_score - result.score);
+        std::printf(", runner-up %s S %.4f (+%.4f)%s", identified.runner_up_id.c_str(), identified.runner_up_score,
+                    identified.runner_up_score - result.score, identified.ambiguous ? ": AMBIGUOUS" : "");
       }
       if (identified.screened_out > 0) std::printf(", %d screened out", identified.screened_out);
       std::printf("\n");
@@ -288,6 +288,7 @@ int main(int argc, char** argv) {
                          {"runner_up", identified.runner_up_id},
                          {"runner_up_score", identified.runner_up_id.empty() ? nlohmann::json()
                                                                             : nlohmann::json(identified.runner_up_score)},
+                         {"ambiguous", identified.ambiguous},
                          {"screened_out", identified.screened_out},
                          {"total_ms", identified.total_ms},
                          {"candidates", tried}};

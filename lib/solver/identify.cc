@@ -199,6 +199,7 @@ IdentifiedPose EstimatePoseOfUnknownObject(const Frame& frame, const cv::Mat& ma
     if (second >= 0) {
       identified.runner_up_id = candidates[second]->object_id;
       identified.runner_up_score = results[second].score;
+      identified.ambiguous = identified.runner_up_score - identified.result.score <= options.ambiguity_margin;
     }
   } else {
     // Nothing fits: the first solved candidate's answer (its termination), with every

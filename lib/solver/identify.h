@@ -60,6 +60,11 @@ struct IdentifiedPose {
   std::string object_id;      ///< the chosen object ("" when none succeeded)
   std::string runner_up_id;   ///< the successful candidate with the next lowest S ("" if none)
   double runner_up_score = 2.0;  ///< its S_A (2 when there is none)
+  /// The runner-up object explains the mask nearly as well: its S_A is within
+  /// SolverOptions::ambiguity_margin of the chosen one's (as for two poses of one object).
+  /// A larger object cut by the image border or hidden behind an occluder can cover the
+  /// same visible pixels and depths as a smaller one; S cannot tell them apart then.
+  bool ambiguous = false;
   /// Every candidate, in the order given, with its S, extent and time.
   std::vector<IdentityCandidate> candidates;
   int screened_out = 0;       ///< candidates the pre-screen ruled out
