@@ -68,7 +68,7 @@ std::vector<StageTime> StageTimes(const StageReport& s) {
   return {{"prepare", s.prepare_ms},     {"features", s.features_ms},       {"match", s.match_ms},
           {"pnp", s.pnp_ms},             {"observable", s.observable_ms},   {"icp", s.icp_ms},
           {"mhpo", s.mhpo_ms},           {"post_refine", s.post_refine_ms}, {"finalists", s.finalists_ms},
-          {"total", s.total_ms}};
+          {"mask_refine", s.mask_refine_ms}, {"total", s.total_ms}};
 }
 
 double ConfidenceFromScore(const SolverOptions& options, double score, bool ambiguous) {
