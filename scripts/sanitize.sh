@@ -31,8 +31,8 @@ TSAN_TARGETS=("${TSAN_TESTS[@]}" g6d-service)
 # 90 minutes on 2 cores): the message, image, cache and BOP parsers with their fuzz corpora,
 # the mesh, symmetry, appearance, rasterizer and solver stages, and the service end to end.
 ASAN_CI_TESTS=(cache_test frame_codec_test bop_test bop_csv_test mesh_test symmetry_test appearance_test
-  raster_test match_test pnp_test icp_test mhpo_test score_test pipeline_test template_bank_test service_test
-  tracker_test)
+  raster_test match_test pnp_test icp_test mhpo_test score_test region_test segments_test pipeline_test
+  template_bank_test service_test tracker_test)
 FUZZ_TARGETS=(frame_message image_decode template_cache bop_json bop_csv)
 
 # The runtime options of both ASan runs: leaks, stop at the first report, suppressions.
