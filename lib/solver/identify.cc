@@ -137,6 +137,18 @@ IdentifiedPose EstimatePoseOfUnknownObject(const Frame& frame, const cv::Mat& ma
           options.mask_trust == MaskTrust::kDepth
               ? ComputeObservedRegion(frame.camera, given, depth, candidate.diameter_m, region).mask
               : given;
+      // The screen's premise is that the region's points are one object's. A region of two
+      // large depth segments or more (a box, a merged mask, an object seen past an
+      // occluder) may hold several objects: its extent then rules out nothing.
+      const DepthSegmentation segmentation = SegmentByDepth(frame.camera, depth, points_mask, options.segments);
+      int segmented = 0, large = 0;
+      for (const DepthSegment& segment : segmentation.segments) segmented += segment.pixels;
+      for (const DepthSegment& segment : segmentation.segments) large += segment.pixels >= 0.1 * segmented;
+      if (large > 1) {
+        candidate.message = "not run";
+        screen_ms[i] = watch.ElapsedMs();
+        continue;
+      }
       double max_depth_m = 0.0;
       candidate.extent_m = MaskDepthExtent(frame.camera, points_mask, depth,
                                            identify_options.extent_trim_fraction, &max_depth_m);

@@ -21,7 +21,9 @@ struct IdentifyOptions {
   /// Pre-screen: a candidate whose diameter is shorter than the extent of the mask's depth
   /// points (MaskDepthExtent), less the sensor's noise at both ends, cannot be the object
   /// and is not solved. Never applied to a single candidate, nor when it would rule out
-  /// every candidate (the mask then holds more than one object: all are solved).
+  /// every candidate (the mask then holds more than one object: all are solved), nor when
+  /// the candidate's region holds two large depth segments or more (a box, a merged mask:
+  /// its extent is not one object's).
   bool prescreen = true;
   /// Fraction of the points left out at each end of every direction's span (flying pixels
   /// and label bleed at the mask boundary), in [0, 0.25).
