@@ -251,11 +251,14 @@ TEST_F(ServiceProcessTest, SigtermCutsARunningK36SolveShort) {
   heavy.instances = std::vector<instance_t>(6, heavy.instances[0]);
   heavy.num_instances = 6;
   ASSERT_EQ(lcm.publish("G6D_RGBD", &heavy), 0);
-  // The status reports the frame received; a little later its solves are under way.
-  ASSERT_TRUE(
-      listener.statuses
-          .PopUntil(seconds(60), [](const service_status_t& s) { return s.frames_received == 1; })
-          .has_value());
+  // The status reports the frame received and taken from the mailbox (busy: a frame still
+  // waiting there would be dropped by the stop, not answered); a little later its solves are
+  // under way. Under ThreadSanitizer on a loaded machine the decode alone can take longer
+  // than the pause below, so "received" is not enough.
+  ASSERT_TRUE(listener.statuses
+                  .PopUntil(seconds(60),
+                            [](const service_status_t& s) { return s.frames_received == 1 && s.busy == 1; })
+                  .has_value());
   std::this_thread::sleep_for(std::chrono::milliseconds(150));
   // Issue 13's bound: running solves are cut short (SolverOptions::stop_requested), not
   // waited for.
