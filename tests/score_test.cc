@@ -141,20 +141,33 @@ TEST(ScoreRendering, DepthEvidenceCountsAnOccluderInTheMaskAsAMissWithoutResidua
   EXPECT_LT(checked.s, as_given.s);
 }
 
-// Segment ownership: a mask merged with a neighbour (another depth segment) is explained by
-// the pose of the object alone; a pose that covers part of the neighbour must explain it all.
-TEST(ScoreRendering, DepthEvidenceLeavesOutTheSegmentsAPoseDoesNotCover) {
-  EvaluationGrid grid = MakeGrid();                  // the object: 4 x 5 at 1 m (segment 1)
-  grid.mask(cv::Rect(6, 2, 3, 5)).setTo(255);        // merged with a neighbour: 3 x 5 at 0.9 m
+// MakeGrid's object (4 x 5 at 1 m, depth segment 1) merged with a neighbour beside it
+// (3 x 5 at 0.9 m, segment 2), as a segmenter that merged touching objects gives it.
+EvaluationGrid MergedGrid() {
+  EvaluationGrid grid = MakeGrid();
+  grid.mask(cv::Rect(6, 2, 3, 5)).setTo(255);
   grid.depth(cv::Rect(6, 2, 3, 5)).setTo(0.9f);
   grid.mask_pixels = 35;
   grid.segment = cv::Mat::zeros(10, 10, CV_32S);
   grid.segment(cv::Rect(2, 2, 4, 5)).setTo(1);
   grid.segment(cv::Rect(6, 2, 3, 5)).setTo(2);
   grid.segment_pixels = {0, 20, 15};
+  return grid;
+}
+
+// The object rendered at its true pose on MergedGrid.
+RasterImage TruePoseRendering() {
   RasterImage rendered;
   rendered.depth = cv::Mat::zeros(10, 10, CV_32F);
-  rendered.depth(cv::Rect(2, 2, 4, 5)).setTo(1.0f);  // the object's true pose
+  rendered.depth(cv::Rect(2, 2, 4, 5)).setTo(1.0f);
+  return rendered;
+}
+
+// Segment ownership: a mask merged with a neighbour (another depth segment) is explained by
+// the pose of the object alone; a pose that covers part of the neighbour must explain it all.
+TEST(ScoreRendering, DepthEvidenceLeavesOutTheSegmentsAPoseDoesNotCover) {
+  EvaluationGrid grid = MergedGrid();
+  RasterImage rendered = TruePoseRendering();
   ScoreOptions evidence;
   evidence.depth_evidence = true;
   evidence.surface_tolerance_m = 0.005;
@@ -178,14 +191,7 @@ TEST(ScoreRendering, DepthEvidenceLeavesOutTheSegmentsAPoseDoesNotCover) {
 // ... but a segment the object could reach from what the pose covers is the pose's to
 // explain (a part behind a depth step): only beyond the object's extent is it another's.
 TEST(ScoreRendering, DepthEvidenceLeavesOutOnlySegmentsBeyondTheObjectsReach) {
-  EvaluationGrid grid = MakeGrid();
-  grid.mask(cv::Rect(6, 2, 3, 5)).setTo(255);
-  grid.depth(cv::Rect(6, 2, 3, 5)).setTo(0.9f);
-  grid.mask_pixels = 35;
-  grid.segment = cv::Mat::zeros(10, 10, CV_32S);
-  grid.segment(cv::Rect(2, 2, 4, 5)).setTo(1);
-  grid.segment(cv::Rect(6, 2, 3, 5)).setTo(2);
-  grid.segment_pixels = {0, 20, 15};
+  EvaluationGrid grid = MergedGrid();
   // Segment 1 spans 0..4 cm along every direction, segment 2 6..9 cm: together 9 cm.
   Spans first, second;
   first.low.fill(0.0);
@@ -193,9 +199,7 @@ TEST(ScoreRendering, DepthEvidenceLeavesOutOnlySegmentsBeyondTheObjectsReach) {
   second.low.fill(0.06);
   second.high.fill(0.09);
   grid.segment_spans = {Spans(), first, second};
-  RasterImage rendered;
-  rendered.depth = cv::Mat::zeros(10, 10, CV_32F);
-  rendered.depth(cv::Rect(2, 2, 4, 5)).setTo(1.0f);
+  const RasterImage rendered = TruePoseRendering();
   ScoreOptions evidence;
   evidence.depth_evidence = true;
   evidence.surface_tolerance_m = 0.005;
