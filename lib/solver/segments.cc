@@ -73,6 +73,20 @@ class DisjointSets {
   std::vector<int> parent_;
 };
 
+// The largest step between neighbouring pixels of one surface at depth z: the noise of
+// both (σ(z) = noise_at_1m · z², independent: √2 σ) and the slope of a surface seen at the
+// steepest incidence over one pixel (z · tan θ / f, f the shorter focal length).
+class SurfaceStep {
+ public:
+  SurfaceStep(const Camera& camera, const SegmentOptions& options)
+      : noise_(options.noise_sigmas * std::sqrt(2.0) * options.sensor_noise_at_1m),
+        slope_(std::tan(options.max_incidence_deg * M_PI / 180.0) / std::min(camera.fx, camera.fy)) {}
+  double operator()(double z) const { return noise_ * z * z + z * slope_; }
+
+ private:
+  double noise_, slope_;
+};
+
 }  // namespace
 
 DepthSegmentation SegmentByDepth(const Camera& camera, const cv::Mat& depth, const cv::Mat& region,
@@ -93,14 +107,7 @@ DepthSegmentation SegmentByDepth(const Camera& camera, const cv::Mat& depth, con
     const float z = depth.at<float>(v, u);
     return region.at<uint8_t>(v, u) != 0 && z > 0.0f && std::isfinite(z);
   };
-  // The largest step between neighbouring pixels of one surface at depth z: the noise of
-  // both (σ(z) = noise_at_1m · z², independent: √2 σ) and the slope of a surface seen at the
-  // steepest incidence over one pixel (z · tan θ / f, f the shorter focal length).
-  const double focal_px = std::min(camera.fx, camera.fy);
-  const double slope = std::tan(options.max_incidence_deg * M_PI / 180.0) / focal_px;
-  auto max_step_m = [&](double z) {
-    return options.noise_sigmas * std::sqrt(2.0) * options.sensor_noise_at_1m * z * z + z * slope;
-  };
+  const SurfaceStep max_step_m(camera, options);
 
   const int width = box.width;
   auto index = [&](int u, int v) { return (v - box.y) * width + (u - box.x); };
@@ -205,11 +212,7 @@ cv::Mat GrowRegionByDepth(const Camera& camera, const cv::Mat& depth, const cv::
     return static_cast<double>(*middle);
   };
   const Eigen::Vector3d centre(median(&xs), median(&ys), median(&zs));
-  const double focal_px = std::min(camera.fx, camera.fy);
-  const double slope = std::tan(options.max_incidence_deg * M_PI / 180.0) / focal_px;
-  auto max_step_m = [&](double z) {
-    return options.noise_sigmas * std::sqrt(2.0) * options.sensor_noise_at_1m * z * z + z * slope;
-  };
+  const SurfaceStep max_step_m(camera, options);
   auto usable = [&](int u, int v) {
     const float z = depth.at<float>(v, u);
     return z > 0.0f && std::isfinite(z) && (support.empty() || !support.at<uint8_t>(v, u));
