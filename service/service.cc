@@ -62,6 +62,10 @@ Service::Service(const ServiceOptions& options, TemplateStore store, lcm::LCM* l
     SolverOptions background = options_.solver;
     background_ = std::make_unique<BackgroundDetector>(background, kBackgroundQueue, kBackgroundNice);
   }
+  // Nice +10 as well: a picture takes what CPU the answers leave.
+  if (options_.debug_images.enabled()) {
+    debug_images_ = std::make_unique<DebugImagePublisher>(options_.debug_images, lcm_, kBackgroundNice);
+  }
 }
 
 Service::~Service() { Stop(); }
@@ -115,6 +119,7 @@ void Service::Stop() {
   if (mailbox_.Stop()) dropped_.fetch_add(1);
   scheduler_thread_.join();
   if (background_) background_->Stop();
+  if (debug_images_) debug_images_->Stop();
   // 3. A last status, then the status thread.
   {
     std::lock_guard<std::mutex> status_lock(status_mutex_);
@@ -132,6 +137,10 @@ void Service::Stop() {
       counters.answers_tracked, counters.answers_redetected,
       background_ ? background_->Completed() : 0, background_corrections_,
       background_ ? background_->Rejected() : 0);
+  if (debug_images_) {
+    spdlog::info("debug images on '{}': published {}, skipped {}, failed {}", options_.debug_images.channel,
+                 debug_images_->Published(), debug_images_->Skipped(), debug_images_->Failed());
+  }
 }
 
 // ---- LCM thread ---------------------------------------------------------------------------
@@ -428,6 +437,24 @@ void Service::ProcessJob(const Job& job) {
   RecordLatency(answer.total_s);
   Publish(options_.output_channel, answer);
   if (options_.publish_rigid_transforms) PublishRigidTransforms(answer);
+  if (debug_images_) OfferDebugImage(job, answer);
+}
+
+void Service::OfferDebugImage(const Job& job, const pose_array_t& answer) {
+  // Shares the decoded images (never written after decoding); the banks are held by
+  // their shared pointers while the picture is made.
+  DebugImageInput input;
+  input.camera = job.decoded.frame.camera;
+  input.rgb = job.decoded.frame.rgb;
+  input.instances = job.decoded.instances;
+  input.answer = answer;
+  for (const pose_estimate_t& estimate : answer.estimates) {
+    const auto bank = store_.banks.find(estimate.object_id);
+    if (estimate.status == pose_estimate_t::STATUS_OK && bank != store_.banks.end()) {
+      input.banks.emplace(estimate.object_id, bank->second);
+    }
+  }
+  debug_images_->Offer(std::move(input));
 }
 
 void Service::ApplyBackgroundDetections() {
@@ -515,6 +542,10 @@ ServiceCounters Service::Counters() const {
   counters.answers_detected = detected_.load();
   counters.answers_tracked = tracked_.load();
   counters.answers_redetected = redetected_.load();
+  if (debug_images_) {
+    counters.debug_images_published = debug_images_->Published();
+    counters.debug_images_skipped = debug_images_->Skipped();
+  }
   counters.busy = busy_.load();
   counters.mailbox_full = mailbox_.Full();
   counters.uptime_s = SecondsBetween(start_time_, Clock::now());

@@ -16,6 +16,9 @@
 ///    is touched by this thread only.
 ///  - the status thread: publishes g6d.service_status_t every status_period_s.
 ///  - options.workers - 1 pool threads.
+///  - with --debug-images, the debug picture thread (DebugImagePublisher, nice +10): the
+///    scheduler offers each answered frame after publishing its answer; the picture is
+///    skipped when the rate limit says so or the previous one is still being made.
 /// Nothing polls or sleeps: every wait is on a condition variable or a file descriptor.
 
 #include <atomic>
@@ -35,6 +38,7 @@
 #include "g6d/pose_array_t.hpp"
 #include "g6d/service_status_t.hpp"
 #include "service/background_detector.h"
+#include "service/debug_images.h"
 #include "service/mailbox.h"
 #include "service/service_options.h"
 #include "service/template_store.h"
@@ -58,6 +62,8 @@ struct ServiceCounters {
   int64_t answers_detected = 0;  ///< OK estimates by mode (pose_estimate_t::mode)
   int64_t answers_tracked = 0;
   int64_t answers_redetected = 0;
+  int64_t debug_images_published = 0;  ///< debug pictures published (--debug-images)
+  int64_t debug_images_skipped = 0;    ///< offers skipped: rate limit, or a picture in the making
   bool busy = false;          ///< a frame is being solved
   bool mailbox_full = false;  ///< a frame waits in the mailbox
   double uptime_s = 0.0;
@@ -139,6 +145,8 @@ class Service {
   /// bot_core.rigid_transform_t of every OK estimate (publish_rigid_transforms).
   void PublishRigidTransforms(const pose_array_t& answer);
   void RecordLatency(double total_s);
+  /// Offers the job's frame and its published answer to the debug picture thread.
+  void OfferDebugImage(const Job& job, const pose_array_t& answer);
 
   const ServiceOptions options_;
   const TemplateStore store_;
@@ -154,6 +162,8 @@ class Service {
   int64_t background_corrections_ = 0;  ///< tracks a background re-detection moved (scheduler thread)
   /// The log said once that instances of unknown identity are not tracked (scheduler thread).
   bool logged_untracked_identity_ = false;
+  /// The debug pictures (--debug-images); null when off.
+  std::unique_ptr<DebugImagePublisher> debug_images_;
   LatestMailbox<Job> mailbox_;
   lcm::Subscription* subscription_ = nullptr;
 

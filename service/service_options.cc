@@ -48,6 +48,13 @@ std::string ServiceOptions::Check() const {
     out << "rigid_transform_prefix must not be empty";
   else if (const std::string error = tracking.Check(); !error.empty())
     out << "tracking: " << error;
+  else if (const std::string error = debug_images.Check(); !error.empty())
+    out << error;
+  else if (debug_images.enabled() &&
+           (debug_images.channel == input_channel || debug_images.channel == output_channel ||
+            debug_images.channel == status_channel))
+    out << "debug_images channel '" << debug_images.channel
+        << "' must differ from the input, output and status channels";
   return out.str();
 }
 
@@ -165,6 +172,17 @@ void ParseServiceOptionsYaml(const std::string& text, const std::string& name,
             {"camera_id", string_field(&o.adapter.camera_id)},
             {"publish_rigid_transforms", bool_field(&o.publish_rigid_transforms)},
             {"rigid_transform_prefix", string_field(&o.rigid_transform_prefix)},
+            {"debug_images", string_field(&o.debug_images.channel)},
+            {"debug_images_hz", double_field(&o.debug_images.max_rate_hz)},
+            {"debug_images_jpeg_quality", int_field(&o.debug_images.jpeg_quality)},
+            {"debug_images_type",
+             [&](const YAML::Node& n, const std::string& key) {
+               try {
+                 o.debug_images.type = ParseDebugImageType(As<std::string>(n, name, key));
+               } catch (const Error& e) {
+                 G6D_THROW(name << ": key '" << key << "': " << e.what());
+               }
+             }},
             {"limits",
              [&](const YAML::Node& n, const std::string& key) {
                ApplyMap(n, name, key,

@@ -6,6 +6,7 @@
 
 #include <string>
 
+#include "service/debug_images.h"
 #include "solver/pipeline.h"
 #include "track/tracker.h"
 #include "wire/frame_codec.h"
@@ -54,6 +55,9 @@ struct ServiceOptions {
   /// rigid_transform_prefix + object id (e.g. G6D_POSE_obj_000005).
   bool publish_rigid_transforms = false;
   std::string rigid_transform_prefix = "G6D_POSE_";  ///< channel prefix of those transforms
+  /// Debug pictures (--debug-images CHANNEL): the frame with each answer drawn on it,
+  /// JPEG, at most debug_images.max_rate_hz; off (no channel) by default.
+  DebugImageOptions debug_images;
   /// Solver options; `solver.num_hypotheses` is K (--hypotheses). The solver's own
   /// defaults, K = 18 included: since issue 13 a K = 18 solve costs less than K = 4 did
   /// before (README, "The service"), so the service no longer trades accuracy for speed by
@@ -77,7 +81,8 @@ struct ServiceOptions {
 /// Keys: name, templates, input, output, status, lcm_url, workers, hypotheses, max_age_ms,
 /// input_type (g6d|drake|bot_core), camera (a mapping as in a camera YAML, see
 /// ParseCameraYaml) or camera_file, labels (label value -> object id) or label_map_file,
-/// camera_id, publish_rigid_transforms, rigid_transform_prefix,
+/// camera_id, publish_rigid_transforms, rigid_transform_prefix, debug_images (a channel),
+/// debug_images_hz, debug_images_type (bot_core|g6d), debug_images_jpeg_quality,
 /// subscription_queue, status_period_s, latency_window, shutdown_timeout_s,
 /// limits: {max_width, max_height, max_raw_bytes, max_instances},
 /// solver: {max_sets, hamming_threshold, min_correspondences, query_features, run_icp,

@@ -17,7 +17,7 @@
 
 #include "core/error.h"
 #include "core/executor.h"
-#include "render/raster.h"
+#include "render/overlay.h"
 #include "solver/identify.h"
 #include "solver/pipeline.h"
 #include "templates/cache.h"
@@ -88,24 +88,15 @@ std::vector<const g6d::TemplateBank*> SelectCandidates(const std::vector<g6d::Te
   return selected;
 }
 
-// Draws the model's projected silhouette contour (green) and its axes (x red, y green, z blue).
+// Draws the model's projected silhouette contour (green) and its axes (x red, y green, z
+// blue) on a BGR image: the overlay of the service's debug images (render/overlay.h).
 void DrawOverlay(const g6d::TemplateBank& bank, const g6d::Camera& camera, const Eigen::Isometry3d& pose,
                  cv::Mat* bgr) {
-  g6d::RasterImage raster;
-  g6d::Rasterize(bank.online_mesh, camera, pose, g6d::RasterOptions(), &raster);
-  std::vector<std::vector<cv::Point>> contours;
-  cv::findContours(raster.Mask(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
-  cv::drawContours(*bgr, contours, -1, cv::Scalar(60, 255, 60), 2, cv::LINE_AA);
-  const double length = 0.5 * bank.diameter_m;
-  const Eigen::Vector3d origin = pose * bank.bounding_box.center();
-  const Eigen::Vector2d o = camera.Project(origin) - Eigen::Vector2d::Constant(g6d::kOpenCvToImage);
-  const cv::Scalar colors[3] = {cv::Scalar(0, 0, 255), cv::Scalar(0, 200, 0), cv::Scalar(255, 0, 0)};
-  for (int axis = 0; axis < 3; ++axis) {
-    const Eigen::Vector3d tip = origin + pose.linear().col(axis) * length;
-    if (tip.z() <= 0.0) continue;
-    const Eigen::Vector2d t = camera.Project(tip) - Eigen::Vector2d::Constant(g6d::kOpenCvToImage);
-    cv::arrowedLine(*bgr, cv::Point2d(o.x(), o.y()), cv::Point2d(t.x(), t.y()), colors[axis], 2, cv::LINE_AA, 0, 0.1);
-  }
+  cv::Mat rgb;
+  cv::cvtColor(*bgr, rgb, cv::COLOR_BGR2RGB);
+  const g6d::OverlayModel model{&bank.online_mesh, bank.bounding_box.center(), bank.diameter_m};
+  g6d::DrawPoseOverlay(model, camera, pose, g6d::OverlayStyle(), &rgb);
+  cv::cvtColor(rgb, *bgr, cv::COLOR_RGB2BGR);
 }
 
 }  // namespace
