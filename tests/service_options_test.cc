@@ -257,5 +257,45 @@ rigid_transform_prefix: POSE_
   }
 }
 
+TEST(ParseServiceOptionsYaml, ReadsTheDebugImageKeysOffByDefault) {
+  ServiceOptions options = Valid();
+  EXPECT_FALSE(options.debug_images.enabled());
+  EXPECT_EQ(options.debug_images.type, DebugImageType::kBotCore);
+  ParseServiceOptionsYaml(
+      "debug_images: G6D_DEBUG\ndebug_images_hz: 5\ndebug_images_type: g6d\ndebug_images_jpeg_quality: 60\n",
+      "debug.yaml", &options);
+  EXPECT_TRUE(options.debug_images.enabled());
+  EXPECT_EQ(options.debug_images.channel, "G6D_DEBUG");
+  EXPECT_EQ(options.debug_images.max_rate_hz, 5.0);
+  EXPECT_EQ(options.debug_images.type, DebugImageType::kG6d);
+  EXPECT_EQ(options.debug_images.jpeg_quality, 60);
+  EXPECT_EQ(options.Check(), "");
+
+  EXPECT_THROW(
+      {
+        try {
+          ParseServiceOptionsYaml("debug_images_type: png\n", "bad.yaml", &options);
+        } catch (const Error& e) {
+          EXPECT_THAT(e.what(), HasSubstr("debug_images_type"));
+          EXPECT_THAT(e.what(), HasSubstr("bot_core or g6d"));
+          throw;
+        }
+      },
+      Error);
+}
+
+TEST(ServiceOptions, CheckNamesBadDebugImageFields) {
+  ServiceOptions options = Valid();
+  options.debug_images.channel = "G6D_DEBUG";
+  options.debug_images.max_rate_hz = -1.0;
+  EXPECT_THAT(options.Check(), HasSubstr("debug_images_hz"));
+  options.debug_images.max_rate_hz = 2.0;
+  options.debug_images.jpeg_quality = 0;
+  EXPECT_THAT(options.Check(), HasSubstr("debug_images_jpeg_quality"));
+  options.debug_images.jpeg_quality = 80;
+  options.debug_images.channel = options.output_channel;
+  EXPECT_THAT(options.Check(), HasSubstr("debug_images channel"));
+}
+
 }  // namespace
 }  // namespace g6d
