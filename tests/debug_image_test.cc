@@ -86,6 +86,24 @@ TEST(DrawDebugImage, DrawsPosesFailuresAndLabels) {
   EXPECT_EQ(input.rgb.at<cv::Vec3b>(40, 60), cv::Vec3b(90, 90, 90)) << "the input image is not drawn on";
 }
 
+TEST(DrawDebugImage, LabelsOfObjectsSideBySideDoNotCoverEachOther) {
+  DebugImageInput input = TwoInstances();
+  // Three answers of the cube 1 cm apart: their silhouette boxes start at the same height.
+  input.instances = {input.instances[0], input.instances[0], input.instances[0]};
+  pose_estimate_t ok = input.answer.estimates[0];
+  input.answer.estimates = {ok, ok, ok};
+  input.answer.estimates[1].position[0] = 0.01;
+  input.answer.estimates[2].position[0] = 0.02;
+  DebugImageReport report;
+  DrawDebugImage(input, OverlayStyle(), &report);
+  ASSERT_EQ(report.label_boxes.size(), 3u);
+  for (size_t a = 0; a < 3; ++a) {
+    for (size_t b = a + 1; b < 3; ++b) {
+      EXPECT_EQ((report.label_boxes[a] & report.label_boxes[b]).area(), 0) << "labels " << a << " and " << b;
+    }
+  }
+}
+
 TEST(DrawDebugImage, AnswerWithoutABankGetsItsLabelOnly) {
   DebugImageInput input = TwoInstances();
   input.banks.clear();

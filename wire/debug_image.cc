@@ -1,11 +1,12 @@
 #include "wire/debug_image.h"
 
 #include <cstdio>
+#include <vector>
 
 #include "core/error.h"
 #include "wire/image_codec.h"
-#include "wire/names.h"
 #include "wire/foreign_images.h"
+#include "wire/names.h"
 
 namespace g6d {
 namespace {
@@ -24,32 +25,44 @@ Eigen::Isometry3d PoseOf(const pose_estimate_t& estimate) {
   return pose;
 }
 
-// Where a label naming `box` goes: just above it, or at the top-left corner of the image
-// when there is no box.
-cv::Point LabelAnchor(const cv::Rect& box) {
-  if (box.area() == 0) return {0, 0};
-  return {box.x, box.y - kLabelGapPx};
+constexpr int kLabelTries = 6;  // places tried above (then below) a box for a free spot
+
+bool Overlaps(const cv::Rect& box, const std::vector<cv::Rect>& taken) {
+  for (const cv::Rect& other : taken)
+    if ((box & other).area() > 0) return true;
+  return false;
 }
 
-// Draws an OK estimate; the label box.
+// Where a label naming `box` goes: just above it, else higher, else below it, at the first
+// place where it covers no label drawn before (`taken`); the top-left corner of the image
+// when there is no box. Objects side by side would otherwise get labels on top of each other.
+cv::Point LabelAnchor(const std::string& text, const cv::Rect& box, const std::vector<cv::Rect>& taken,
+                      double scale, cv::Size image_size) {
+  const cv::Point above(box.x, box.area() == 0 ? 0 : box.y - kLabelGapPx);
+  const int step = LabelBox(text, above, scale, image_size).height + 2;
+  const cv::Point below(box.x, box.y + box.height + kLabelGapPx + step);
+  for (const cv::Point start : {above, below}) {
+    const int direction = start == above ? -1 : 1;
+    for (int k = 0; k < kLabelTries; ++k) {
+      const cv::Point anchor(start.x, start.y + direction * k * step);
+      if (!Overlaps(LabelBox(text, anchor, scale, image_size), taken)) return anchor;
+    }
+  }
+  return above;
+}
+
+// Draws an OK estimate's contour and axes when its bank is known; the silhouette's box.
 cv::Rect DrawAnswered(const pose_estimate_t& estimate, const TemplateBank* bank, const Camera& camera,
                       const OverlayStyle& style, RasterImage* raster, cv::Mat* canvas) {
-  cv::Rect silhouette_box;
-  if (bank != nullptr) {
-    const OverlayModel model{&bank->online_mesh, bank->bounding_box.center(), bank->diameter_m};
-    silhouette_box = DrawPoseOverlay(model, camera, PoseOf(estimate), style, canvas, raster).silhouette_box;
-  }
-  return DrawLabel(DebugLabel(estimate), LabelAnchor(silhouette_box), style.contour_color, style.label_scale, canvas);
+  if (bank == nullptr) return cv::Rect();
+  const OverlayModel model{&bank->online_mesh, bank->bounding_box.center(), bank->diameter_m};
+  return DrawPoseOverlay(model, camera, PoseOf(estimate), style, canvas, raster).silhouette_box;
 }
 
-// Draws a failed estimate: its instance's mask outline; the label box.
-cv::Rect DrawFailed(const pose_estimate_t& estimate, const DecodedInstance& instance, const OverlayStyle& style,
-                    cv::Mat* canvas) {
-  cv::Rect mask_box;
-  if (!instance.mask.empty() && instance.mask.size() == canvas->size()) {
-    mask_box = DrawMaskOutline(instance.mask, style.failure_color, kOutlinePx, canvas);
-  }
-  return DrawLabel(DebugLabel(estimate), LabelAnchor(mask_box), style.failure_color, style.label_scale, canvas);
+// Draws a failed estimate's instance mask outline (when it has one); the mask's box.
+cv::Rect DrawFailed(const DecodedInstance& instance, const OverlayStyle& style, cv::Mat* canvas) {
+  if (instance.mask.empty() || instance.mask.size() != canvas->size()) return cv::Rect();
+  return DrawMaskOutline(instance.mask, style.failure_color, kOutlinePx, canvas);
 }
 
 }  // namespace
@@ -92,17 +105,26 @@ cv::Mat DrawDebugImage(const DebugImageInput& input, const OverlayStyle& style, 
   out = DebugImageReport();
   cv::Mat canvas = input.rgb.clone();
   RasterImage raster;
+  // Shapes first, labels last, so that no contour crosses a label.
+  std::vector<cv::Rect> named_boxes(estimates.size());
   for (size_t i = 0; i < estimates.size(); ++i) {
     const pose_estimate_t& estimate = estimates[i];
     if (estimate.status == pose_estimate_t::STATUS_OK) {
       const auto bank = input.banks.find(estimate.object_id);
       const TemplateBank* model = bank == input.banks.end() ? nullptr : bank->second.get();
-      out.label_boxes.push_back(DrawAnswered(estimate, model, camera, style, &raster, &canvas));
+      named_boxes[i] = DrawAnswered(estimate, model, camera, style, &raster, &canvas);
       if (model != nullptr) ++out.poses_drawn;
     } else {
-      out.label_boxes.push_back(DrawFailed(estimate, input.instances[i], style, &canvas));
+      named_boxes[i] = DrawFailed(input.instances[i], style, &canvas);
       ++out.failures_drawn;
     }
+  }
+  for (size_t i = 0; i < estimates.size(); ++i) {
+    const std::string label = DebugLabel(estimates[i]);
+    const cv::Point anchor = LabelAnchor(label, named_boxes[i], out.label_boxes, style.label_scale, canvas.size());
+    const bool ok = estimates[i].status == pose_estimate_t::STATUS_OK;
+    out.label_boxes.push_back(
+        DrawLabel(label, anchor, ok ? style.contour_color : style.failure_color, style.label_scale, &canvas));
   }
   return canvas;
 }

@@ -93,21 +93,30 @@ cv::Rect DrawMaskOutline(const cv::Mat& mask, const cv::Scalar& color, int thick
   return cv::boundingRect(mask);
 }
 
+namespace {
+constexpr int kLabelFont = cv::FONT_HERSHEY_SIMPLEX;
+constexpr int kLabelPadding = 3;  // pixels around the text
+}  // namespace
+
+cv::Rect LabelBox(const std::string& text, cv::Point anchor, double scale, cv::Size image_size) {
+  int baseline = 0;
+  const cv::Size size = cv::getTextSize(text, kLabelFont, scale, 1, &baseline);
+  cv::Rect box(anchor.x, anchor.y - size.height - baseline - 2 * kLabelPadding, size.width + 2 * kLabelPadding,
+               size.height + baseline + 2 * kLabelPadding);
+  // Keep the box inside the image (shifted, not clipped, so the text stays readable).
+  box.x = std::clamp(box.x, 0, std::max(0, image_size.width - box.width));
+  box.y = std::clamp(box.y, 0, std::max(0, image_size.height - box.height));
+  return box & cv::Rect(0, 0, image_size.width, image_size.height);
+}
+
 cv::Rect DrawLabel(const std::string& text, cv::Point anchor, const cv::Scalar& color, double scale, cv::Mat* rgb) {
   if (rgb == nullptr || rgb->empty()) G6D_THROW("DrawLabel: no canvas");
-  constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
-  constexpr int kPadding = 3;  // pixels around the text
+  const cv::Rect box = LabelBox(text, anchor, scale, rgb->size());
   int baseline = 0;
-  const cv::Size size = cv::getTextSize(text, kFont, scale, 1, &baseline);
-  cv::Rect box(anchor.x, anchor.y - size.height - baseline - 2 * kPadding, size.width + 2 * kPadding,
-               size.height + baseline + 2 * kPadding);
-  // Keep the box inside the image (shifted, not clipped, so the text stays readable).
-  box.x = std::clamp(box.x, 0, std::max(0, rgb->cols - box.width));
-  box.y = std::clamp(box.y, 0, std::max(0, rgb->rows - box.height));
-  box &= cv::Rect(0, 0, rgb->cols, rgb->rows);
+  const cv::Size size = cv::getTextSize(text, kLabelFont, scale, 1, &baseline);
   cv::rectangle(*rgb, box, cv::Scalar(20, 20, 20), cv::FILLED);
-  cv::putText(*rgb, text, cv::Point(box.x + kPadding, box.y + kPadding + size.height), kFont, scale, color, 1,
-              cv::LINE_AA);
+  cv::putText(*rgb, text, cv::Point(box.x + kLabelPadding, box.y + kLabelPadding + size.height), kLabelFont, scale,
+              color, 1, cv::LINE_AA);
   return box;
 }
 

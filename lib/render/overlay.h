@@ -61,8 +61,11 @@ PoseOverlayReport DrawPoseOverlay(const OverlayModel& model, const Camera& camer
 /// pixels). Throws g6d::Error when the mask does not match the canvas.
 cv::Rect DrawMaskOutline(const cv::Mat& mask, const cv::Scalar& color, int thickness_px, cv::Mat* rgb);
 
-/// Writes `text` in `color` on a dark box whose bottom-left corner is at `anchor` (moved
-/// so the box stays inside the image). Returns the box drawn, pixels.
+/// The box DrawLabel fills for `text` at `anchor` on an image of `image_size`: its
+/// bottom-left corner at `anchor`, moved so the box stays inside the image; pixels.
+cv::Rect LabelBox(const std::string& text, cv::Point anchor, double scale, cv::Size image_size);
+
+/// Writes `text` in `color` on a dark box (LabelBox of `anchor`). Returns the box drawn.
 cv::Rect DrawLabel(const std::string& text, cv::Point anchor, const cv::Scalar& color, double scale,
                    cv::Mat* rgb);
 
