@@ -88,6 +88,11 @@ void Service::Start() {
                options_.input_channel, InputTypeName(options_.input_type),
                options_.output_channel, options_.status_channel,
                options_.workers, solver_options_.num_hypotheses, JoinIds(store_.ObjectIds()));
+  if (debug_images_) {
+    spdlog::info("debug images on '{}' ({}, JPEG quality {}), at most {} per second", options_.debug_images.channel,
+                 DebugImageTypeName(options_.debug_images.type), options_.debug_images.jpeg_quality,
+                 options_.debug_images.max_rate_hz);
+  }
   const TrackerOptions& tracking = options_.tracking;
   if (tracking.enabled) {
     spdlog::info(
