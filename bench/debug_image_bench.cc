@@ -45,8 +45,8 @@ std::string TakeFlag(int* argc, char** argv, const std::string& name, const std:
 
 // An answered frame of `count` objects (the banks cycled), in a row across the image at
 // seeded random orientations.
-DebugImageInput MakeInput(const std::vector<std::shared_ptr<const TemplateBank>>& banks, const cv::Mat& rgb,
-                          int count) {
+DebugImageInput MakeInput(const std::vector<std::shared_ptr<const TemplateBank>>& banks,
+                          const cv::Mat& rgb, int count) {
   DebugImageInput input;
   input.camera = kCamera;
   input.rgb = rgb;
@@ -92,7 +92,8 @@ void BM_Jpeg(benchmark::State& state, const DebugImageInput* input) {
 
 void BM_DrawAndJpeg(benchmark::State& state, const DebugImageInput* input) {
   for (auto _ : state) {
-    benchmark::DoNotOptimize(MakeBotCoreJpeg(DrawDebugImage(*input, OverlayStyle()), kJpegQuality, 0));
+    benchmark::DoNotOptimize(
+        MakeBotCoreJpeg(DrawDebugImage(*input, OverlayStyle()), kJpegQuality, 0));
   }
 }
 
@@ -114,8 +115,10 @@ int main(int argc, char** argv) {
       banks.push_back(std::make_shared<g6d::TemplateBank>(g6d::ReadTemplateCache(file)));
   }
   if (banks.empty()) {
-    std::fprintf(stderr, "no .g6dcache under %s (make the sample: g6d-make-sample --out out/demo/sample): "
-                 "nothing to benchmark\n", caches.c_str());
+    std::fprintf(stderr,
+                 "no .g6dcache under %s (make the sample: g6d-make-sample --out out/demo/sample): "
+                 "nothing to benchmark\n",
+                 caches.c_str());
     return 0;
   }
   cv::Mat rgb(g6d::kCamera.height, g6d::kCamera.width, CV_8UC3, cv::Scalar(150, 120, 90));
@@ -136,7 +139,8 @@ int main(int argc, char** argv) {
         ->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark(("DebugImage/jpeg" + objects).c_str(), g6d::BM_Jpeg, &input)
         ->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark(("DebugImage/draw_and_jpeg" + objects).c_str(), g6d::BM_DrawAndJpeg, &input)
+    benchmark::RegisterBenchmark(("DebugImage/draw_and_jpeg" + objects).c_str(),
+                                 g6d::BM_DrawAndJpeg, &input)
         ->Unit(benchmark::kMillisecond);
   }
   benchmark::RunSpecifiedBenchmarks();

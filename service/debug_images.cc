@@ -15,7 +15,8 @@ namespace {
 
 // The options when they are valid and enabled; throws naming the bad field otherwise.
 const DebugImageOptions& Checked(const DebugImageOptions& options) {
-  if (const std::string error = options.Check(); !error.empty()) G6D_THROW("DebugImageOptions: " << error);
+  if (const std::string error = options.Check(); !error.empty())
+    G6D_THROW("DebugImageOptions: " << error);
   if (!options.enabled()) G6D_THROW("DebugImagePublisher: no channel given");
   return options;
 }
@@ -31,10 +32,12 @@ std::string DebugImageOptions::Check() const {
   return out.str();
 }
 
-DebugImagePublisher::DebugImagePublisher(const DebugImageOptions& options, lcm::LCM* lcm, int nice_increment)
+DebugImagePublisher::DebugImagePublisher(const DebugImageOptions& options, lcm::LCM* lcm,
+                                         int nice_increment)
     : options_(Checked(options)),
       lcm_(lcm),
-      min_interval_(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / options.max_rate_hz))) {
+      min_interval_(std::chrono::duration_cast<Clock::duration>(
+          std::chrono::duration<double>(1.0 / options.max_rate_hz))) {
   if (lcm_ == nullptr) G6D_THROW("DebugImagePublisher: no LCM instance");
   thread_ = std::thread([this, nice_increment] { Loop(nice_increment); });
 }
@@ -102,13 +105,15 @@ void DebugImagePublisher::MakeAndPublish(const DebugImageInput& input) {
       const image_t message = MakeG6dJpeg(picture, options_.jpeg_quality);
       status = lcm_->publish(options_.channel, &message);
     } else {
-      const bot_core::image_t message = MakeBotCoreJpeg(picture, options_.jpeg_quality, input.answer.source_utime);
+      const bot_core::image_t message =
+          MakeBotCoreJpeg(picture, options_.jpeg_quality, input.answer.source_utime);
       status = lcm_->publish(options_.channel, &message);
     }
     if (status != 0) G6D_THROW("publish on '" << options_.channel << "' failed");
     published_.fetch_add(1);
   } catch (const std::exception& e) {
-    if (failed_.fetch_add(1) == 0) spdlog::warn("debug image of frame seq {}: {}", input.answer.seq, e.what());
+    if (failed_.fetch_add(1) == 0)
+      spdlog::warn("debug image of frame seq {}: {}", input.answer.seq, e.what());
   }
 }
 

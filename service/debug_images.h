@@ -23,10 +23,10 @@ namespace g6d {
 
 /// Options of the debug pictures (ServiceOptions::debug_images).
 struct DebugImageOptions {
-  std::string channel;        ///< LCM channel of the pictures; empty = off (the default)
-  double max_rate_hz = 2.0;   ///< at most this many pictures per second (wall clock)
+  std::string channel;       ///< LCM channel of the pictures; empty = off (the default)
+  double max_rate_hz = 2.0;  ///< at most this many pictures per second (wall clock)
   DebugImageType type = DebugImageType::kBotCore;  ///< message type on `channel`
-  int jpeg_quality = 80;      ///< JPEG quality 1..100
+  int jpeg_quality = 80;                           ///< JPEG quality 1..100
 
   bool enabled() const { return !channel.empty(); }
   /// Empty when valid, else names the bad field (checked when enabled or not).

@@ -64,7 +64,8 @@ Service::Service(const ServiceOptions& options, TemplateStore store, lcm::LCM* l
   }
   // Nice +10 as well: a picture takes what CPU the answers leave.
   if (options_.debug_images.enabled()) {
-    debug_images_ = std::make_unique<DebugImagePublisher>(options_.debug_images, lcm_, kBackgroundNice);
+    debug_images_ =
+        std::make_unique<DebugImagePublisher>(options_.debug_images, lcm_, kBackgroundNice);
   }
 }
 
@@ -89,9 +90,9 @@ void Service::Start() {
                options_.output_channel, options_.status_channel,
                options_.workers, solver_options_.num_hypotheses, JoinIds(store_.ObjectIds()));
   if (debug_images_) {
-    spdlog::info("debug images on '{}' ({}, JPEG quality {}), at most {} per second", options_.debug_images.channel,
-                 DebugImageTypeName(options_.debug_images.type), options_.debug_images.jpeg_quality,
-                 options_.debug_images.max_rate_hz);
+    spdlog::info("debug images on '{}' ({}, JPEG quality {}), at most {} per second",
+                 options_.debug_images.channel, DebugImageTypeName(options_.debug_images.type),
+                 options_.debug_images.jpeg_quality, options_.debug_images.max_rate_hz);
   }
   const TrackerOptions& tracking = options_.tracking;
   if (tracking.enabled) {
@@ -143,8 +144,9 @@ void Service::Stop() {
       background_ ? background_->Completed() : 0, background_corrections_,
       background_ ? background_->Rejected() : 0);
   if (debug_images_) {
-    spdlog::info("debug images on '{}': published {}, skipped {}, failed {}", options_.debug_images.channel,
-                 debug_images_->Published(), debug_images_->Skipped(), debug_images_->Failed());
+    spdlog::info("debug images on '{}': published {}, skipped {}, failed {}",
+                 options_.debug_images.channel, debug_images_->Published(),
+                 debug_images_->Skipped(), debug_images_->Failed());
   }
 }
 

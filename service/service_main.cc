@@ -124,23 +124,27 @@ int main(int argc, char** argv) {
       app.add_option("--rigid-transform-prefix", flags.rigid_transform_prefix,
                      "channel prefix of those transforms")
           ->capture_default_str();
-  auto* debug_images = app.add_option("--debug-images", flags.debug_images.channel,
-                                      "publish the frame with each answer drawn on it (model contour, axes, "
-                                      "S_A, confidence, mode; failures in red), JPEG, on this channel (off when "
-                                      "not given)");
-  auto* debug_images_hz = app.add_option("--debug-images-hz", flags.debug_images.max_rate_hz,
-                                         "at most this many debug images per second (skipped frames are counted)")
-                              ->capture_default_str();
+  auto* debug_images =
+      app.add_option("--debug-images", flags.debug_images.channel,
+                     "publish the frame with each answer drawn on it (model contour, axes, "
+                     "S_A, confidence, mode; failures in red), JPEG, on this channel (off when "
+                     "not given)");
+  auto* debug_images_hz =
+      app.add_option("--debug-images-hz", flags.debug_images.max_rate_hz,
+                     "at most this many debug images per second (skipped frames are counted)")
+          ->capture_default_str();
   std::string debug_images_type = g6d::DebugImageTypeName(defaults.debug_images.type);
   auto* debug_images_type_option =
-      app.add_option("--debug-images-type", debug_images_type,
-                     "message type of the debug images: bot_core (bot_core.image_t, MJPEG: bot viewers, "
-                     "Director) or g6d (g6d.image_t, JPEG)")
+      app.add_option(
+             "--debug-images-type", debug_images_type,
+             "message type of the debug images: bot_core (bot_core.image_t, MJPEG: bot viewers, "
+             "Director) or g6d (g6d.image_t, JPEG)")
           ->check(CLI::IsMember({"bot_core", "g6d"}))
           ->capture_default_str();
-  auto* debug_images_quality = app.add_option("--debug-images-quality", flags.debug_images.jpeg_quality,
-                                              "JPEG quality of the debug images, 1..100")
-                                   ->capture_default_str();
+  auto* debug_images_quality =
+      app.add_option("--debug-images-quality", flags.debug_images.jpeg_quality,
+                     "JPEG quality of the debug images, 1..100")
+          ->capture_default_str();
   // Tracking (TrackerOptions). The switches take on|off, so that a YAML "tracking:
   // {enabled: false}" can be turned back on from the command line.
   std::string tracking_switch = "on", velocity_switch = "on", background_switch = "on";
@@ -217,8 +221,10 @@ int main(int argc, char** argv) {
   if (given(rigid_prefix)) options.rigid_transform_prefix = flags.rigid_transform_prefix;
   if (given(debug_images)) options.debug_images.channel = flags.debug_images.channel;
   if (given(debug_images_hz)) options.debug_images.max_rate_hz = flags.debug_images.max_rate_hz;
-  if (given(debug_images_type_option)) options.debug_images.type = g6d::ParseDebugImageType(debug_images_type);
-  if (given(debug_images_quality)) options.debug_images.jpeg_quality = flags.debug_images.jpeg_quality;
+  if (given(debug_images_type_option))
+    options.debug_images.type = g6d::ParseDebugImageType(debug_images_type);
+  if (given(debug_images_quality))
+    options.debug_images.jpeg_quality = flags.debug_images.jpeg_quality;
   if (given(tracking)) options.tracking.enabled = tracking_switch == "on";
   if (given(track_max_age)) options.tracking.max_age_s = flags.tracking.max_age_s;
   if (given(track_min_overlap)) options.tracking.min_overlap = flags.tracking.min_overlap;

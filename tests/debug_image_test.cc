@@ -46,13 +46,15 @@ DebugImageInput TwoInstances() {
   ok.score = 0.0841;
   ok.confidence = 0.93;
   ok.mode = pose_estimate_t::MODE_TRACKED;
-  input.answer.estimates = {ok, Estimate("other", pose_estimate_t::STATUS_NO_SOLUTION, "too few matches")};
+  input.answer.estimates = {
+      ok, Estimate("other", pose_estimate_t::STATUS_NO_SOLUTION, "too few matches")};
   input.answer.num_estimates = 2;
   auto bank = std::make_shared<TemplateBank>();
   bank->object_id = "cube";
   bank->online_mesh = test::MakeCube(0.05);
   bank->diameter_m = 0.1 * std::sqrt(3.0);
-  bank->bounding_box = Eigen::AlignedBox3d(Eigen::Vector3d::Constant(-0.05), Eigen::Vector3d::Constant(0.05));
+  bank->bounding_box =
+      Eigen::AlignedBox3d(Eigen::Vector3d::Constant(-0.05), Eigen::Vector3d::Constant(0.05));
   input.banks["cube"] = bank;
   return input;
 }
@@ -83,7 +85,8 @@ TEST(DrawDebugImage, DrawsPosesFailuresAndLabels) {
   // The failed instance's box outline: on its top edge, not inside it.
   EXPECT_GT(cv::countNonZero(failure(cv::Rect(40, 40, 80, 2))), 60);
   EXPECT_EQ(cv::countNonZero(failure(cv::Rect(50, 50, 60, 40))), 0);
-  EXPECT_EQ(input.rgb.at<cv::Vec3b>(40, 60), cv::Vec3b(90, 90, 90)) << "the input image is not drawn on";
+  EXPECT_EQ(input.rgb.at<cv::Vec3b>(40, 60), cv::Vec3b(90, 90, 90))
+      << "the input image is not drawn on";
 }
 
 TEST(DrawDebugImage, LabelsOfObjectsSideBySideDoNotCoverEachOther) {
@@ -99,7 +102,8 @@ TEST(DrawDebugImage, LabelsOfObjectsSideBySideDoNotCoverEachOther) {
   ASSERT_EQ(report.label_boxes.size(), 3u);
   for (size_t a = 0; a < 3; ++a) {
     for (size_t b = a + 1; b < 3; ++b) {
-      EXPECT_EQ((report.label_boxes[a] & report.label_boxes[b]).area(), 0) << "labels " << a << " and " << b;
+      EXPECT_EQ((report.label_boxes[a] & report.label_boxes[b]).area(), 0)
+          << "labels " << a << " and " << b;
     }
   }
 }

@@ -64,8 +64,9 @@ double UnchangedFraction(const cv::Mat& a, const cv::Mat& b, const cv::Mat& regi
 // Pixels farther than `distance_px` from every pixel of `boundary`.
 cv::Mat FarFrom(const cv::Mat& boundary, int distance_px) {
   cv::Mat near;
-  cv::dilate(boundary, near, cv::getStructuringElement(cv::MORPH_ELLIPSE,
-                                                       cv::Size(2 * distance_px + 1, 2 * distance_px + 1)));
+  cv::dilate(boundary, near,
+             cv::getStructuringElement(cv::MORPH_ELLIPSE,
+                                       cv::Size(2 * distance_px + 1, 2 * distance_px + 1)));
   return near == 0;
 }
 
@@ -82,8 +83,8 @@ class PictureListener {
 
   struct Picture {
     cv::Mat rgb;
-    int64_t utime = -1;        ///< bot_core only
-    int32_t pixelformat = 0;   ///< bot_core only
+    int64_t utime = -1;       ///< bot_core only
+    int32_t pixelformat = 0;  ///< bot_core only
     int32_t declared_width = 0, declared_height = 0;
   };
   test::Inbox<Picture> pictures;
@@ -136,8 +137,10 @@ class DebugImagesTest : public ::testing::Test {
     options_ = options;
     TemplateStore store;
     store.banks[test::kBoxId] = std::make_shared<TemplateBank>(scene_->bank);
-    listener_ = std::make_unique<test::ServiceListener>(&lcm_, options.output_channel, options.status_channel);
-    pictures_ = std::make_unique<PictureListener>(&lcm_, options.debug_images.channel, options.debug_images.type);
+    listener_ = std::make_unique<test::ServiceListener>(&lcm_, options.output_channel,
+                                                        options.status_channel);
+    pictures_ = std::make_unique<PictureListener>(&lcm_, options.debug_images.channel,
+                                                  options.debug_images.type);
     service_ = std::make_unique<Service>(options, std::move(store), &lcm_);
     service_->Start();
   }
@@ -195,16 +198,20 @@ TEST_F(DebugImagesTest, ContourFollowsTheAnsweredSilhouetteAndTheRestIsTheImage)
 
     // The silhouette of the mesh at the answered pose, rendered here independently.
     RasterImage raster;
-    Rasterize(scene_->bank.online_mesh, test::kServiceCamera, test::PoseOf(estimate), RasterOptions(), &raster);
+    Rasterize(scene_->bank.online_mesh, test::kServiceCamera, test::PoseOf(estimate),
+              RasterOptions(), &raster);
     const cv::Mat boundary = Boundary(raster.Mask());
     ASSERT_GT(cv::countNonZero(boundary), 100);
     // JPEG shifts colours, most near sharp lines: a generous tolerance, still far from
     // the grey background and the box's texture (the control below).
     constexpr int kTolerance = 70;
-    const double covered = CoveredFraction(boundary, PixelsOfColor(picture.rgb, style.contour_color, kTolerance));
+    const double covered =
+        CoveredFraction(boundary, PixelsOfColor(picture.rgb, style.contour_color, kTolerance));
     EXPECT_GT(covered, 0.85) << "the contour colour along the answered silhouette";
-    const double covered_before = CoveredFraction(boundary, PixelsOfColor(view.rgb, style.contour_color, kTolerance));
-    EXPECT_LT(covered_before, 0.2) << "the frame itself has the contour colour there: the check proves nothing";
+    const double covered_before =
+        CoveredFraction(boundary, PixelsOfColor(view.rgb, style.contour_color, kTolerance));
+    EXPECT_LT(covered_before, 0.2)
+        << "the frame itself has the contour colour there: the check proves nothing";
 
     // Away from the silhouette the picture is the frame (up to JPEG), except the label
     // and the axis tips: a few per cent of the pixels at most.
@@ -244,7 +251,8 @@ TEST_F(DebugImagesTest, RateLimitCountsFramesNotTime) {
   options.debug_images.max_rate_hz = 0.001;
   StartService(options);
   for (int i = 0; i < kFrames; ++i) {
-    const pose_array_t answer = Answer(test::MakeRgbdFrame(scene_->views[i % kNumViews], 30 + i, test::kBoxId));
+    const pose_array_t answer =
+        Answer(test::MakeRgbdFrame(scene_->views[i % kNumViews], 30 + i, test::kBoxId));
     ASSERT_EQ(answer.status, +pose_array_t::STATUS_OK);
   }
   ASSERT_FALSE(NextPicture().rgb.empty());
@@ -264,7 +272,8 @@ TEST_F(DebugImagesTest, BurstIsAnsweredInFullWhilePicturesAreSkipped) {
   StartService(options);
   constexpr int kFrames = 8;
   for (int i = 0; i < kFrames; ++i) {
-    const rgbd_frame_t frame = test::MakeRgbdFrame(scene_->views[i % kNumViews], 40 + i, test::kBoxId);
+    const rgbd_frame_t frame =
+        test::MakeRgbdFrame(scene_->views[i % kNumViews], 40 + i, test::kBoxId);
     ASSERT_EQ(lcm_.publish(options_.input_channel, &frame), 0);
   }
   ASSERT_FALSE(NextPicture().rgb.empty());
@@ -273,7 +282,8 @@ TEST_F(DebugImagesTest, BurstIsAnsweredInFullWhilePicturesAreSkipped) {
   // Frames the LCM thread had not taken when it stopped are not received.
   EXPECT_EQ(counters.frames_processed + counters.frames_dropped, counters.frames_received);
   EXPECT_GE(counters.debug_images_published, 1);
-  EXPECT_EQ(counters.debug_images_published + counters.debug_images_skipped, counters.frames_processed);
+  EXPECT_EQ(counters.debug_images_published + counters.debug_images_skipped,
+            counters.frames_processed);
 }
 
 TEST(DebugImageOptions, CheckNamesTheBadField) {

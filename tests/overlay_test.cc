@@ -59,7 +59,8 @@ TEST(DrawPoseOverlay, ContourLiesOnTheSilhouetteBoundaryAndNothingElseFarAway) {
   far(cv::Rect(320 - 12, 0, 24, 480)).setTo(0);
   EXPECT_EQ(cv::countNonZero(far & PixelsOf(canvas, kBackground)), cv::countNonZero(far));
   // The x axis reaches beyond the silhouette: 0.5 diameters = 87 mm at 0.5 m = 87 px.
-  EXPECT_GT(cv::countNonZero(PixelsOf(canvas, style.axis_colors[0])(cv::Rect(395, 234, 10, 12))), 0);
+  EXPECT_GT(cv::countNonZero(PixelsOf(canvas, style.axis_colors[0])(cv::Rect(395, 234, 10, 12))),
+            0);
 }
 
 TEST(DrawPoseOverlay, RefusesACanvasOfTheWrongSizeAndABadStyle) {
@@ -84,7 +85,8 @@ TEST(DrawMaskOutline, OutlinesTheMaskAndLeavesItsInside) {
   EXPECT_EQ(DrawMaskOutline(mask, red, 2, &canvas), box);
   EXPECT_EQ(canvas.at<cv::Vec3b>(box.y, box.x + 40), cv::Vec3b(255, 50, 50));
   EXPECT_EQ(canvas.at<cv::Vec3b>(box.y + 30, box.x + 40), cv::Vec3b(90, 90, 90));
-  EXPECT_EQ(DrawMaskOutline(cv::Mat::zeros(kCamera.height, kCamera.width, CV_8U), red, 2, &canvas), cv::Rect());
+  EXPECT_EQ(DrawMaskOutline(cv::Mat::zeros(kCamera.height, kCamera.width, CV_8U), red, 2, &canvas),
+            cv::Rect());
   EXPECT_THROW(DrawMaskOutline(cv::Mat::zeros(10, 10, CV_8U), red, 2, &canvas), Error);
 }
 
@@ -92,7 +94,8 @@ TEST(DrawLabel, StaysInsideTheImage) {
   cv::Mat canvas = Canvas();
   const cv::Rect inside(0, 0, canvas.cols, canvas.rows);
   for (const cv::Point anchor : {cv::Point(630, 2), cv::Point(-50, 900), cv::Point(300, 200)}) {
-    const cv::Rect box = DrawLabel("obj_000001 S 0.050 c 0.90 tracked", anchor, cv::Scalar(60, 255, 60), 0.5, &canvas);
+    const cv::Rect box = DrawLabel("obj_000001 S 0.050 c 0.90 tracked", anchor,
+                                   cv::Scalar(60, 255, 60), 0.5, &canvas);
     EXPECT_GT(box.area(), 0);
     EXPECT_EQ(box & inside, box) << "anchor " << anchor;
   }

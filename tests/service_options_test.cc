@@ -262,7 +262,8 @@ TEST(ParseServiceOptionsYaml, ReadsTheDebugImageKeysOffByDefault) {
   EXPECT_FALSE(options.debug_images.enabled());
   EXPECT_EQ(options.debug_images.type, DebugImageType::kBotCore);
   ParseServiceOptionsYaml(
-      "debug_images: G6D_DEBUG\ndebug_images_hz: 5\ndebug_images_type: g6d\ndebug_images_jpeg_quality: 60\n",
+      "debug_images: G6D_DEBUG\ndebug_images_hz: 5\ndebug_images_type: "
+      "g6d\ndebug_images_jpeg_quality: 60\n",
       "debug.yaml", &options);
   EXPECT_TRUE(options.debug_images.enabled());
   EXPECT_EQ(options.debug_images.channel, "G6D_DEBUG");

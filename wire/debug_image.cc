@@ -4,8 +4,8 @@
 #include <vector>
 
 #include "core/error.h"
-#include "wire/image_codec.h"
 #include "wire/foreign_images.h"
+#include "wire/image_codec.h"
 #include "wire/names.h"
 
 namespace g6d {
@@ -17,11 +17,12 @@ constexpr int kLabelGapPx = 4;           // between a label and the box it names
 
 // cam_from_object of an estimate (position metres, quaternion w x y z).
 Eigen::Isometry3d PoseOf(const pose_estimate_t& estimate) {
-  const Eigen::Quaterniond rotation(estimate.orientation[0], estimate.orientation[1], estimate.orientation[2],
-                                    estimate.orientation[3]);
+  const Eigen::Quaterniond rotation(estimate.orientation[0], estimate.orientation[1],
+                                    estimate.orientation[2], estimate.orientation[3]);
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   pose.linear() = rotation.normalized().toRotationMatrix();
-  pose.translation() = Eigen::Vector3d(estimate.position[0], estimate.position[1], estimate.position[2]);
+  pose.translation() =
+      Eigen::Vector3d(estimate.position[0], estimate.position[1], estimate.position[2]);
   return pose;
 }
 
@@ -36,8 +37,8 @@ bool Overlaps(const cv::Rect& box, const std::vector<cv::Rect>& taken) {
 // Where a label naming `box` goes: just above it, else higher, else below it, at the first
 // place where it covers no label drawn before (`taken`); the top-left corner of the image
 // when there is no box. Objects side by side would otherwise get labels on top of each other.
-cv::Point LabelAnchor(const std::string& text, const cv::Rect& box, const std::vector<cv::Rect>& taken,
-                      double scale, cv::Size image_size) {
+cv::Point LabelAnchor(const std::string& text, const cv::Rect& box,
+                      const std::vector<cv::Rect>& taken, double scale, cv::Size image_size) {
   const cv::Point above(box.x, box.area() == 0 ? 0 : box.y - kLabelGapPx);
   const int step = LabelBox(text, above, scale, image_size).height + 2;
   const cv::Point below(box.x, box.y + box.height + kLabelGapPx + step);
@@ -52,8 +53,9 @@ cv::Point LabelAnchor(const std::string& text, const cv::Rect& box, const std::v
 }
 
 // Draws an OK estimate's contour and axes when its bank is known; the silhouette's box.
-cv::Rect DrawAnswered(const pose_estimate_t& estimate, const TemplateBank* bank, const Camera& camera,
-                      const OverlayStyle& style, RasterImage* raster, cv::Mat* canvas) {
+cv::Rect DrawAnswered(const pose_estimate_t& estimate, const TemplateBank* bank,
+                      const Camera& camera, const OverlayStyle& style, RasterImage* raster,
+                      cv::Mat* canvas) {
   if (bank == nullptr) return cv::Rect();
   const OverlayModel model{&bank->online_mesh, bank->bounding_box.center(), bank->diameter_m};
   return DrawPoseOverlay(model, camera, PoseOf(estimate), style, canvas, raster).silhouette_box;
@@ -89,11 +91,13 @@ std::string DebugLabel(const pose_estimate_t& estimate) {
   return object + " " + EstimateStatusName(estimate.status) + ": " + message;
 }
 
-cv::Mat DrawDebugImage(const DebugImageInput& input, const OverlayStyle& style, DebugImageReport* report) {
+cv::Mat DrawDebugImage(const DebugImageInput& input, const OverlayStyle& style,
+                       DebugImageReport* report) {
   const Camera& camera = input.camera;
-  if (input.rgb.type() != CV_8UC3 || input.rgb.cols != camera.width || input.rgb.rows != camera.height) {
-    G6D_THROW("DrawDebugImage: the colour image must be CV_8UC3 of the camera's " << camera.width << " x "
-                                                                                  << camera.height);
+  if (input.rgb.type() != CV_8UC3 || input.rgb.cols != camera.width ||
+      input.rgb.rows != camera.height) {
+    G6D_THROW("DrawDebugImage: the colour image must be CV_8UC3 of the camera's "
+              << camera.width << " x " << camera.height);
   }
   const std::vector<pose_estimate_t>& estimates = input.answer.estimates;
   if (estimates.size() != input.instances.size()) {
@@ -121,10 +125,11 @@ cv::Mat DrawDebugImage(const DebugImageInput& input, const OverlayStyle& style, 
   }
   for (size_t i = 0; i < estimates.size(); ++i) {
     const std::string label = DebugLabel(estimates[i]);
-    const cv::Point anchor = LabelAnchor(label, named_boxes[i], out.label_boxes, style.label_scale, canvas.size());
+    const cv::Point anchor =
+        LabelAnchor(label, named_boxes[i], out.label_boxes, style.label_scale, canvas.size());
     const bool ok = estimates[i].status == pose_estimate_t::STATUS_OK;
-    out.label_boxes.push_back(
-        DrawLabel(label, anchor, ok ? style.contour_color : style.failure_color, style.label_scale, &canvas));
+    out.label_boxes.push_back(DrawLabel(
+        label, anchor, ok ? style.contour_color : style.failure_color, style.label_scale, &canvas));
   }
   return canvas;
 }
@@ -137,7 +142,8 @@ image_t MakeG6dJpeg(const cv::Mat& rgb, int quality) {
 
 bot_core::image_t MakeBotCoreJpeg(const cv::Mat& rgb, int quality, int64_t utime) {
   // The same JPEG bytes as g6d's image codec makes (true colours from RGB8).
-  return MakeBotCoreImage(rgb, bot_core::image_t::PIXEL_FORMAT_MJPEG, MakeG6dJpeg(rgb, quality).data, utime);
+  return MakeBotCoreImage(rgb, bot_core::image_t::PIXEL_FORMAT_MJPEG,
+                          MakeG6dJpeg(rgb, quality).data, utime);
 }
 
 }  // namespace g6d

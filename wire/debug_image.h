@@ -63,7 +63,8 @@ std::string DebugLabel(const pose_estimate_t& estimate);
 /// style.failure_color. An OK estimate without a bank gets its label only. Throws
 /// g6d::Error when the image does not match the camera or the estimates are not one per
 /// instance.
-cv::Mat DrawDebugImage(const DebugImageInput& input, const OverlayStyle& style, DebugImageReport* report = nullptr);
+cv::Mat DrawDebugImage(const DebugImageInput& input, const OverlayStyle& style,
+                       DebugImageReport* report = nullptr);
 
 /// bot_core.image_t of `rgb` (CV_8UC3 RGB) as JPEG of `quality` (1..100), pixelformat
 /// MJPEG, row_stride 3 x width, utime as given.

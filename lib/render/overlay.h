@@ -23,11 +23,12 @@ struct OverlayStyle {
   cv::Scalar contour_color{60, 255, 60};  ///< silhouette contour of a pose, RGB
   int contour_thickness_px = 2;           ///< line width of the contour, pixels
   /// Axis colours x, y, z (red, green, blue), RGB.
-  cv::Scalar axis_colors[3] = {cv::Scalar(255, 40, 40), cv::Scalar(0, 200, 0), cv::Scalar(40, 80, 255)};
-  int axis_thickness_px = 2;            ///< line width of the axes, pixels
-  double axis_length_fraction = 0.5;    ///< axis length, fraction of the object diameter
+  cv::Scalar axis_colors[3] = {cv::Scalar(255, 40, 40), cv::Scalar(0, 200, 0),
+                               cv::Scalar(40, 80, 255)};
+  int axis_thickness_px = 2;              ///< line width of the axes, pixels
+  double axis_length_fraction = 0.5;      ///< axis length, fraction of the object diameter
   cv::Scalar failure_color{255, 50, 50};  ///< outline and label of a failed instance, RGB
-  double label_scale = 0.5;             ///< OpenCV font scale of labels
+  double label_scale = 0.5;               ///< OpenCV font scale of labels
 
   /// Empty when valid, else names the bad field.
   std::string Check() const;
@@ -37,7 +38,7 @@ struct OverlayStyle {
 struct OverlayModel {
   const Mesh* mesh = nullptr;  ///< metres, object frame (a bank's online mesh)
   Eigen::Vector3d axes_origin_in_object = Eigen::Vector3d::Zero();  ///< metres (e.g. box centre)
-  double diameter_m = 0.0;  ///< sets the axis length
+  double diameter_m = 0.0;                                          ///< sets the axis length
 };
 
 /// What one DrawPoseOverlay drew, for the caller to place a label.
@@ -53,13 +54,15 @@ struct PoseOverlayReport {
 /// to avoid allocations; may be null). Throws g6d::Error when the canvas does not match
 /// the camera, the style or model is invalid, or the mesh has a face index out of range.
 PoseOverlayReport DrawPoseOverlay(const OverlayModel& model, const Camera& camera,
-                                  const Eigen::Isometry3d& cam_from_object, const OverlayStyle& style,
-                                  cv::Mat* rgb, RasterImage* raster = nullptr);
+                                  const Eigen::Isometry3d& cam_from_object,
+                                  const OverlayStyle& style, cv::Mat* rgb,
+                                  RasterImage* raster = nullptr);
 
 /// Draws the outer outline of the non-zero pixels of `mask` (CV_8U, canvas-sized) in
 /// `color`, `thickness_px` wide. Returns the mask's bounding box (empty when it has no
 /// pixels). Throws g6d::Error when the mask does not match the canvas.
-cv::Rect DrawMaskOutline(const cv::Mat& mask, const cv::Scalar& color, int thickness_px, cv::Mat* rgb);
+cv::Rect DrawMaskOutline(const cv::Mat& mask, const cv::Scalar& color, int thickness_px,
+                         cv::Mat* rgb);
 
 /// The box DrawLabel fills for `text` at `anchor` on an image of `image_size`: its
 /// bottom-left corner at `anchor`, moved so the box stays inside the image; pixels.
