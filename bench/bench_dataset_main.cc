@@ -151,6 +151,10 @@ int main(int argc, char** argv) {
   int icp_coarse = -1;
   int icp_stall = -1, mhpo_min_rounds = -1;
   app.add_option("--mhpo-min-rounds", mhpo_min_rounds, "MHPO rounds before early stopping may end it (default: solver's)");
+  double grow_fraction = -1.0;
+  int max_search_regions = -1;
+  app.add_option("--grow-fraction", grow_fraction, "search region grown by the depth up to this fraction of the mask box (0 = off; default: solver's)");
+  app.add_option("--max-search-regions", max_search_regions, "depth segments searched alone when the region spans more than the object (0 = off; default: solver's)");
   app.add_option("--icp-stall", icp_stall, "ICP stops when the trimmed RMSE reached no new minimum for N iterations (0 = off; default: solver's)");
   app.add_option("--icp-coarse-points", icp_coarse, "ICP coarse-to-fine: converge on this many source points first (0 = off; default: solver's)");
   app.add_option("--icp-finish", icp_finish, "hypotheses ICP finishes after the probe (default: solver's)");
@@ -222,6 +226,8 @@ int main(int argc, char** argv) {
     if (icp_coarse >= 0) options.icp_coarse_points = icp_coarse;
     if (icp_stall >= 0) options.icp.stall_window = icp_stall;
     if (mhpo_min_rounds >= 0) options.mhpo.min_rounds = mhpo_min_rounds;
+    if (grow_fraction >= 0.0) options.region.grow_fraction = grow_fraction;
+    if (max_search_regions >= 0) options.max_search_regions = max_search_regions;
     if (pnp_min_quality >= 0.0) options.pnp_min_quality_ratio = pnp_min_quality;
     options.post_refine = post_refine;
     if (icp_min_step > 0) options.icp.min_step_m = icp_min_step;

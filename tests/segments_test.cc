@@ -106,17 +106,36 @@ TEST(GrowRegionByDepth, AnErodedMaskGrowsOverItsSurfaceButNotOntoTheBackgroundOr
   mask(cv::Rect(face.x + 6, face.y + 6, face.width - 12, face.height - 12)).setTo(255);
   cv::Mat support = cv::Mat::zeros(kHeight, kWidth, CV_8U);
   support(cv::Rect(face.x, face.y, 4, face.height)).setTo(255);
-  const cv::Mat grown = GrowRegionByDepth(kCamera, depth, mask, support, 0.5, 30, SegmentOptions());
+  const cv::Mat grown = GrowRegionByDepth(kCamera, depth, mask, support, 0.5, 30, 0.25, SegmentOptions());
   EXPECT_EQ(cv::countNonZero(grown), face.area() - 4 * face.height);
   EXPECT_EQ(cv::countNonZero(grown(face)), face.area() - 4 * face.height);
   // Within 3 steps only the first 3 rings (4-neighbour growth: a diamond at the corners).
-  const cv::Mat near = GrowRegionByDepth(kCamera, depth, mask, cv::Mat(), 0.5, 3, SegmentOptions());
+  const cv::Mat near = GrowRegionByDepth(kCamera, depth, mask, cv::Mat(), 0.5, 3, 0.25, SegmentOptions());
   EXPECT_GT(cv::countNonZero(near), cv::countNonZero(mask));
   EXPECT_LT(cv::countNonZero(near), face.area());
   EXPECT_EQ(cv::countNonZero(near(cv::Rect(face.x, face.y, 3, face.height))), 0);
   // Within a 1 cm reach of the mask's median point nothing new is close enough.
-  const cv::Mat short_reach = GrowRegionByDepth(kCamera, depth, mask, cv::Mat(), 0.01, 30, SegmentOptions());
+  const cv::Mat short_reach = GrowRegionByDepth(kCamera, depth, mask, cv::Mat(), 0.01, 30, 0.25, SegmentOptions());
   EXPECT_LT(cv::countNonZero(short_reach), cv::countNonZero(mask) + 10);
+}
+
+TEST(GrowRegionByDepth, AMaskThatLeakedOntoANeighbourDoesNotGrowOverIt) {
+  // The object's face at 0.70 m (40 x 40 px) beside a neighbour's face at 0.76 m (a depth
+  // step far above the noise) that it touches in the image; the mask is the object's face
+  // dilated by 6 px to the right, over a 6 px rim of the neighbour.
+  cv::Mat depth = Filled(1.0f);
+  const cv::Rect object(60, 40, 40, 40), neighbour(100, 40, 60, 40);
+  depth(object).setTo(0.70f);
+  depth(neighbour).setTo(0.76f);
+  cv::Mat mask = cv::Mat::zeros(kHeight, kWidth, CV_8U);
+  mask(cv::Rect(object.x, object.y, object.width + 6, object.height)).setTo(255);
+  const cv::Mat grown = GrowRegionByDepth(kCamera, depth, mask, cv::Mat(), 0.5, 30, 0.25, SegmentOptions());
+  // The rim leaves the region and nothing more of the neighbour joins.
+  EXPECT_EQ(cv::countNonZero(grown(neighbour)), 0);
+  EXPECT_EQ(cv::countNonZero(grown(object)), object.area());
+  // Without the ownership rule the growth runs over the neighbour.
+  const cv::Mat all = GrowRegionByDepth(kCamera, depth, mask, cv::Mat(), 0.5, 30, 0.0, SegmentOptions());
+  EXPECT_GT(cv::countNonZero(all(neighbour)), 20 * neighbour.height);
 }
 
 TEST(SegmentByDepth, BadOptionsAndInputsAreRefusedByName) {

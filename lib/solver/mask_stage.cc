@@ -87,7 +87,8 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
   const int grow_steps = static_cast<int>(std::ceil(options.region.grow_fraction * std::max(box.width, box.height)));
   auto search_region = [&](const cv::Mat& region, double z_m) {
     Observation::SearchRegion search;
-    search.mask = grow ? GrowRegionByDepth(frame.camera, depth, region, support, diameter_m, grow_steps, options.segments)
+    search.mask = grow ? GrowRegionByDepth(frame.camera, depth, region, support, diameter_m, grow_steps,
+                                           options.score.segment_own_fraction, options.segments)
                        : region;
     search.box = cv::boundingRect(search.mask);
     search.z_m = z_m;

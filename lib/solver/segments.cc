@@ -184,7 +184,8 @@ DepthSegmentation SegmentByDepth(const Camera& camera, const cv::Mat& depth, con
 }
 
 cv::Mat GrowRegionByDepth(const Camera& camera, const cv::Mat& depth, const cv::Mat& mask, const cv::Mat& support,
-                          double reach_m, int max_steps_px, const SegmentOptions& options) {
+                          double reach_m, int max_steps_px, double min_covered_fraction,
+                          const SegmentOptions& options) {
   const std::string bad = options.Check();
   if (!bad.empty()) G6D_THROW(bad);
   if (depth.type() != CV_32F || mask.type() != CV_8U || depth.size() != mask.size() ||
@@ -241,7 +242,57 @@ cv::Mat GrowRegionByDepth(const Camera& camera, const cv::Mat& depth, const cv::
     }
     front.swap(next);
   }
-  return grown;
+  if (min_covered_fraction <= 0.0) return grown;
+  // Growth from a leak: a mask that reached a neighbour's surface covers a thin rim of it,
+  // and the growth would go on over the whole neighbour. The mask owns the segments of the
+  // grown region it covers at least `min_covered_fraction` of (as a pose owns segments,
+  // ScoreOptions::segment_own_fraction); the others keep only the mask's own pixels.
+  const DepthSegmentation segmentation = SegmentByDepth(camera, depth, grown, options);
+  std::vector<int> covered(segmentation.segments.size() + 1, 0);
+  for (int v = 0; v < mask.rows; ++v) {
+    const uint8_t* m = mask.ptr<uint8_t>(v);
+    const int* label = segmentation.labels.ptr<int>(v);
+    for (int u = 0; u < mask.cols; ++u) {
+      if (m[u] && label[u] > 0) ++covered[static_cast<size_t>(label[u])];
+    }
+  }
+  // The rims of segments the mask does not own leave the region too, unless that would take
+  // most of the mask's depth away (then the mask is mostly on such a segment: the object
+  // touches a neighbour at the same depth, and the mask is the better guess).
+  auto owned = [&](int label) {
+    return label > 0 && covered[static_cast<size_t>(label)] >=
+                            min_covered_fraction * segmentation.segments[static_cast<size_t>(label) - 1].pixels;
+  };
+  cv::Mat result = cv::Mat::zeros(mask.size(), CV_8U);
+  int kept = 0, with_depth = 0;
+  for (int v = 0; v < mask.rows; ++v) {
+    const uint8_t* m = mask.ptr<uint8_t>(v);
+    const uint8_t* g = grown.ptr<uint8_t>(v);
+    const int* label = segmentation.labels.ptr<int>(v);
+    uint8_t* r = result.ptr<uint8_t>(v);
+    for (int u = 0; u < mask.cols; ++u) {
+      if (m[u] && label[u] > 0) ++with_depth;
+      if (owned(label[u]) && g[u]) {
+        r[u] = 255;
+        kept += m[u] != 0;
+      } else if (m[u] && label[u] == 0) {
+        r[u] = 255;  // no depth, or a fragment: the mask's word
+      }
+    }
+  }
+  if (2 * kept < with_depth) {
+    cv::Mat fallback = mask > 0;
+    for (int v = 0; v < mask.rows; ++v) {
+      const uint8_t* g = grown.ptr<uint8_t>(v);
+      const int* label = segmentation.labels.ptr<int>(v);
+      uint8_t* f = fallback.ptr<uint8_t>(v);
+      for (int u = 0; u < mask.cols; ++u) {
+        if (g[u] && owned(label[u])) f[u] = 255;
+      }
+    }
+    return fallback;
+  }
+  return result;
 }
 
 }  // namespace g6d

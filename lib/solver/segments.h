@@ -85,8 +85,13 @@ DepthSegmentation SegmentByDepth(const Camera& camera, const cv::Mat& depth, con
 /// surface), that are not on the support (`support`: CV_8U, non-zero = support; may be
 /// empty) and whose points lie within `reach_m` of the mask's median point: the object a
 /// cautious (eroded) or partial (cut) mask missed, up to where the object's surface ends in
-/// a depth edge. At most `max_steps_px` pixels away from the mask. CV_8U 0/255.
+/// a depth edge. At most `max_steps_px` pixels away from the mask. The mask owns the depth
+/// segments of the grown region it covers at least `min_covered_fraction` of (0 = all):
+/// only those grow, and a rim of one it does not own (a mask that leaked onto a neighbour's
+/// surface) leaves the region, unless that would take away more than half of the mask's
+/// pixels with depth. CV_8U 0/255.
 cv::Mat GrowRegionByDepth(const Camera& camera, const cv::Mat& depth, const cv::Mat& mask, const cv::Mat& support,
-                          double reach_m, int max_steps_px, const SegmentOptions& options);
+                          double reach_m, int max_steps_px, double min_covered_fraction,
+                          const SegmentOptions& options);
 
 }  // namespace g6d
