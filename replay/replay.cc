@@ -17,6 +17,7 @@
 #include "core/error.h"
 #include "eval/bop.h"
 #include "frame_log.h"
+#include "wire/answer.h"
 #include "wire/lcm_loop.h"
 #include "wire/names.h"
 
@@ -417,11 +418,7 @@ std::vector<BopEstimate> AnswersToBopEstimates(const std::vector<ReplayedFrame>&
       row.scene_id = answer.scene_id >= 0 ? answer.scene_id : frame.scene_id;
       row.im_id = answer.image_id >= 0 ? answer.image_id : frame.image_id;
       row.score = estimate.confidence;
-      const Eigen::Quaterniond rotation(estimate.orientation[0], estimate.orientation[1],
-                                        estimate.orientation[2], estimate.orientation[3]);
-      row.cam_from_object.linear() = rotation.normalized().toRotationMatrix();
-      row.cam_from_object.translation() =
-          Eigen::Vector3d(estimate.position[0], estimate.position[1], estimate.position[2]);
+      row.cam_from_object = CamFromObjectOf(estimate);
       row.time_s = answer.total_s;
       rows.push_back(row);
     }

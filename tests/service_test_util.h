@@ -25,6 +25,7 @@
 #include "solver/pipeline.h"
 #include "synthetic/service_scene.h"
 #include "synthetic/synthetic_scene.h"
+#include "wire/answer.h"
 #include "templates/template_bank.h"
 #include "wire/frame_codec.h"
 #include "wire/lcm_loop.h"
@@ -36,15 +37,7 @@ namespace g6d::test {
 using namespace g6d::synthetic;  // NOLINT(build/namespaces)
 
 /// cam_from_object of an estimate.
-inline Eigen::Isometry3d PoseOf(const pose_estimate_t& estimate) {
-  const Eigen::Quaterniond rotation(estimate.orientation[0], estimate.orientation[1],
-                                    estimate.orientation[2], estimate.orientation[3]);
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.linear() = rotation.normalized().toRotationMatrix();
-  pose.translation() =
-      Eigen::Vector3d(estimate.position[0], estimate.position[1], estimate.position[2]);
-  return pose;
-}
+inline Eigen::Isometry3d PoseOf(const pose_estimate_t& estimate) { return CamFromObjectOf(estimate); }
 
 
 /// A blocking queue of received messages of one type.

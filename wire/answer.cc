@@ -53,6 +53,15 @@ void SetPose(const Eigen::Isometry3d& cam_from_object, double position[3], doubl
 
 }  // namespace
 
+Eigen::Isometry3d CamFromObjectOf(const pose_estimate_t& estimate) {
+  const Eigen::Quaterniond rotation(estimate.orientation[0], estimate.orientation[1], estimate.orientation[2],
+                                    estimate.orientation[3]);
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = rotation.normalized().toRotationMatrix();
+  pose.translation() = Eigen::Vector3d(estimate.position[0], estimate.position[1], estimate.position[2]);
+  return pose;
+}
+
 pose_estimate_t MakePoseEstimate(const DecodedInstance& instance, const PoseResult& result) {
   pose_estimate_t estimate = EstimateFor(instance);
   if (result.success) {

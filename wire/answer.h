@@ -48,6 +48,9 @@ using Timings = std::vector<std::pair<std::string, double>>;
 /// identity ("", 0), candidates_tried 1.
 pose_estimate_t MakePoseEstimate(const DecodedInstance& instance, const PoseResult& result);
 
+/// The estimate's cam_from_object (position in metres, the quaternion w x y z normalized).
+Eigen::Isometry3d CamFromObjectOf(const pose_estimate_t& estimate);
+
 /// The estimate of an instance of unknown identity: MakePoseEstimate of the chosen
 /// object's result with object_id the chosen object ("" when no candidate succeeded), the
 /// whole search's time as solve_time_s, identity_searched true, candidates_tried the

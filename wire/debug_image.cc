@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "wire/answer.h"
 #include "wire/foreign_images.h"
 #include "wire/image_codec.h"
 #include "wire/names.h"
@@ -15,16 +16,6 @@ constexpr size_t kMaxMessageChars = 60;  // a longer failure message is cut in t
 constexpr int kOutlinePx = 2;            // failed instance's mask outline, pixels
 constexpr int kLabelGapPx = 4;           // between a label and the box it names, pixels
 
-// cam_from_object of an estimate (position metres, quaternion w x y z).
-Eigen::Isometry3d PoseOf(const pose_estimate_t& estimate) {
-  const Eigen::Quaterniond rotation(estimate.orientation[0], estimate.orientation[1],
-                                    estimate.orientation[2], estimate.orientation[3]);
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.linear() = rotation.normalized().toRotationMatrix();
-  pose.translation() =
-      Eigen::Vector3d(estimate.position[0], estimate.position[1], estimate.position[2]);
-  return pose;
-}
 
 constexpr int kLabelTries = 6;  // places tried above (then below) a box for a free spot
 
@@ -58,7 +49,7 @@ cv::Rect DrawAnswered(const pose_estimate_t& estimate, const TemplateBank* bank,
                       cv::Mat* canvas) {
   if (bank == nullptr) return cv::Rect();
   const OverlayModel model{&bank->online_mesh, bank->bounding_box.center(), bank->diameter_m};
-  return DrawPoseOverlay(model, camera, PoseOf(estimate), style, canvas, raster).silhouette_box;
+  return DrawPoseOverlay(model, camera, CamFromObjectOf(estimate), style, canvas, raster).silhouette_box;
 }
 
 // Draws a failed estimate's instance mask outline (when it has one); the mask's box.
