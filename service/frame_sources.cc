@@ -62,7 +62,8 @@ std::string FrameSources::DueWarning(Source* source, Clock::time_point now) cons
   std::ostringstream text;
   text << "camera '" << counts.id << "': ";
   if (source->unlogged_lost > 0) {
-    text << source->unlogged_lost << " frames lost (seq gaps)";
+    text << source->unlogged_lost << (source->unlogged_lost == 1 ? " frame" : " frames")
+         << " lost (seq gaps)";
   }
   if (source->unlogged_out_of_order > 0) {
     text << (source->unlogged_lost > 0 ? ", " : "") << source->unlogged_out_of_order
