@@ -7,6 +7,8 @@
 #include <cstdlib>
 #include <sstream>
 
+#include "g6d/rgbd_frame_t.hpp"
+
 namespace g6d {
 
 FrameSources::FrameSources(int64_t restart_window, Clock::duration warn_period)
@@ -121,6 +123,26 @@ std::string QueryValue(const std::string& url, const std::string& key) {
 }
 
 }  // namespace
+
+bool PeekRgbdFrameSource(const void* data, int64_t size, std::string* camera_id, int64_t* seq) {
+  // LCM's encoding: fingerprint, utime, seq (big-endian int64), then camera_id as an int32
+  // length that counts the terminating NUL, and the bytes.
+  const auto* bytes = static_cast<const uint8_t*>(data);
+  auto read = [&](int64_t offset, int width) {
+    uint64_t value = 0;
+    for (int i = 0; i < width; ++i) value = value << 8 | bytes[offset + i];
+    return value;
+  };
+  constexpr int64_t kCameraIdAt = 24;
+  if (data == nullptr || size < kCameraIdAt + 4) return false;
+  if (static_cast<int64_t>(read(0, 8)) != rgbd_frame_t::getHash()) return false;
+  const int64_t length = static_cast<int32_t>(read(kCameraIdAt, 4));
+  if (length < 1 || length > size - kCameraIdAt - 4) return false;
+  *seq = static_cast<int64_t>(read(16, 8));
+  camera_id->assign(reinterpret_cast<const char*>(bytes + kCameraIdAt + 4),
+                    static_cast<size_t>(length - 1));
+  return true;
+}
 
 ReceiveBuffer ProbeReceiveBuffer(const std::string& lcm_url) {
   ReceiveBuffer buffer;

@@ -16,6 +16,10 @@
 ///    as a restart, the seq is taken as the new last, nothing is lost.
 /// bot_core.images_t carries no seq: its frames are counted as received only
 /// (Record with has_seq = false; lost and out of order stay 0, last seq -1).
+/// A message the service rejects counts under its camera when its camera_id and seq can
+/// still be read (g6d frames with an intact start, PeekRgbdFrameSource); one that cannot be
+/// read at all (another type, garbage, a drake array that does not decode) names no source,
+/// so its seq shows as a gap of its camera: it is counted in frames_rejected and lost both.
 
 #include <chrono>
 #include <cstdint>
@@ -81,6 +85,11 @@ class FrameSources {
   mutable std::mutex mutex_;
   std::map<std::string, Source> sources_;
 };
+
+/// Reads camera_id and seq of an encoded g6d.rgbd_frame_t whose body may be malformed (a
+/// frame the service rejects still arrived: it is counted under its camera, not as a gap).
+/// False when the fingerprint is not rgbd_frame_t's or the bytes end before camera_id.
+bool PeekRgbdFrameSource(const void* data, int64_t size, std::string* camera_id, int64_t* seq);
 
 /// The receive buffer of the LCM socket, as the kernel grants it.
 struct ReceiveBuffer {

@@ -178,11 +178,15 @@ void Service::HandleMessage(const void* data, int64_t size, Clock::time_point re
     message = AdaptMessage(options_.input_type, data, size, options_.adapter, options_.limits,
                            input_seq_.fetch_add(1), &header);
   } catch (const Error& e) {
+    std::string camera_id;
+    int64_t seq = 0;
+    if (options_.input_type == InputType::kG6d && PeekRgbdFrameSource(data, size, &camera_id, &seq))
+      CountSource(camera_id, seq, size);
     Reject(header, e.what(), received, SecondsBetween(received, Clock::now()));
     return;
   }
   header = HeaderOf(message);
-  CountSource(message, size);
+  CountSource(message.camera_id, message.seq, size);
   if (IsStale(header.utime)) {
     stale_.fetch_add(1);
     return;
@@ -593,15 +597,15 @@ service_status_t Service::MakeStatus() const {
 
 // ---- Sources (issue 24: lost frames are visible) -------------------------------------------
 
-void Service::CountSource(const rgbd_frame_t& message, int64_t encoded_bytes) {
+void Service::CountSource(const std::string& camera_id, int64_t seq, int64_t encoded_bytes) {
   // bot_core.images_t has no seq: the adapter numbers its frames, so gaps mean nothing.
   const bool has_seq = options_.input_type != InputType::kBotCore;
-  const std::string warning = sources_.Record(message.camera_id, message.seq, has_seq);
+  const std::string warning = sources_.Record(camera_id, seq, has_seq);
   if (!warning.empty()) spdlog::warn("{}", warning);
   if (!checked_first_frame_) {
     checked_first_frame_ = true;
-    CheckReceiveBuffer(encoded_bytes, "the first frame, '" + message.camera_id + "' seq " +
-                                          std::to_string(message.seq) + ", as sent");
+    CheckReceiveBuffer(encoded_bytes, "the first frame, '" + camera_id + "' seq " +
+                                          std::to_string(seq) + ", as sent");
   }
 }
 

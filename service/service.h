@@ -151,7 +151,7 @@ class Service {
   /// Counts the frame under its camera_id (seq gaps, out of order; frame_sources.h), logs
   /// a rate-limited loss warning, and checks the receive buffer against the first frame's
   /// `encoded_bytes`. LCM thread.
-  void CountSource(const rgbd_frame_t& message, int64_t encoded_bytes);
+  void CountSource(const std::string& camera_id, int64_t seq, int64_t encoded_bytes);
   /// Warns when the LCM receive buffer cannot hold a frame of `frame_bytes`.
   void CheckReceiveBuffer(int64_t frame_bytes, const std::string& what) const;
   /// The per-source fields of the status (issue 24).

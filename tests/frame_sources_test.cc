@@ -148,6 +148,25 @@ rgbd_frame_t SmallFrame(const std::string& camera_id, int64_t seq) {
   return frame;
 }
 
+std::vector<uint8_t> Encode(const rgbd_frame_t& frame) {
+  std::vector<uint8_t> bytes(static_cast<size_t>(frame.getEncodedSize()));
+  frame.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  return bytes;
+}
+
+TEST(PeekRgbdFrameSource, ReadsCameraAndSeqOfABrokenFrame) {
+  std::vector<uint8_t> bytes = Encode(SmallFrame("wrist_cam", 4711));
+  std::string camera_id;
+  int64_t seq = 0;
+  ASSERT_TRUE(PeekRgbdFrameSource(bytes.data(), 60, &camera_id, &seq));  // cut after the id
+  EXPECT_EQ(camera_id, "wrist_cam");
+  EXPECT_EQ(seq, 4711);
+  EXPECT_FALSE(PeekRgbdFrameSource(bytes.data(), 30, &camera_id, &seq));  // cut inside it
+  EXPECT_FALSE(PeekRgbdFrameSource(nullptr, 0, &camera_id, &seq));
+  bytes[0] ^= 0xff;  // another type's fingerprint
+  EXPECT_FALSE(PeekRgbdFrameSource(bytes.data(), static_cast<int64_t>(bytes.size()), &camera_id, &seq));
+}
+
 TEST(ServiceStatus, CountsLostAndOutOfOrderFramesPerCamera) {
   lcm::LCM lcm("memq://");
   ASSERT_TRUE(lcm.good());
@@ -174,14 +193,23 @@ TEST(ServiceStatus, CountsLostAndOutOfOrderFramesPerCamera) {
     const rgbd_frame_t frame = SmallFrame(camera, seq);
     ASSERT_EQ(lcm.publish(options.input_channel, &frame), 0);
   }
+  // Rejected, but arrived: left 11 cut short after its camera id (counted under left, no
+  // gap before 12), and garbage that names no camera (counted nowhere but rejected).
+  const std::vector<uint8_t> truncated = Encode(SmallFrame("left", 11));
+  ASSERT_EQ(lcm.publish(options.input_channel, truncated.data(), 200), 0);
+  const std::vector<uint8_t> garbage(100, 0x5a);
+  ASSERT_EQ(lcm.publish(options.input_channel, garbage.data(), 100), 0);
+  const rgbd_frame_t after = SmallFrame("left", 12);
+  ASSERT_EQ(lcm.publish(options.input_channel, &after), 0);
+  const int64_t sent = static_cast<int64_t>(frames.size()) + 3;
   const std::optional<service_status_t> status =
       listener.statuses.PopUntil(seconds(30), [&](const service_status_t& s) {
-        const int64_t n = static_cast<int64_t>(frames.size());
-        return s.frames_received == n && s.frames_processed + s.frames_dropped == n;
+        return s.frames_received == sent &&
+               s.frames_processed + s.frames_dropped + s.frames_rejected == sent;
       });
   service.Stop();
   ASSERT_TRUE(status.has_value());
-  EXPECT_EQ(status->frames_rejected, 0);
+  EXPECT_EQ(status->frames_rejected, 2);
   EXPECT_EQ(status->frames_lost, 6);
   EXPECT_EQ(status->frames_out_of_order, 3);
   EXPECT_EQ(status->recv_buffer_bytes, 0);  // memq: no socket
@@ -189,11 +217,11 @@ TEST(ServiceStatus, CountsLostAndOutOfOrderFramesPerCamera) {
   ASSERT_EQ(status->source_ids.size(), 2u);
   EXPECT_EQ(status->source_ids, (std::vector<std::string>{"left", "right"}));
   EXPECT_EQ(status->source_has_seq, (std::vector<int8_t>{1, 1}));
-  EXPECT_EQ(status->source_received, (std::vector<int64_t>{8, 6}));
+  EXPECT_EQ(status->source_received, (std::vector<int64_t>{10, 6}));
   EXPECT_EQ(status->source_lost, (std::vector<int64_t>{4, 2}));
   EXPECT_EQ(status->source_out_of_order, (std::vector<int64_t>{2, 1}));
   EXPECT_EQ(status->source_restarts, (std::vector<int64_t>{0, 1}));
-  EXPECT_EQ(status->source_last_seq, (std::vector<int64_t>{10, 4}));
+  EXPECT_EQ(status->source_last_seq, (std::vector<int64_t>{12, 4}));
 }
 
 }  // namespace
