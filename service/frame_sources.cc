@@ -169,7 +169,8 @@ ReceiveBuffer ProbeReceiveBuffer(const std::string& lcm_url) {
   return buffer;
 }
 
-std::string ReceiveBufferWarning(const ReceiveBuffer& buffer, int64_t frame_bytes) {
+std::string ReceiveBufferWarning(const ReceiveBuffer& buffer, int64_t frame_bytes,
+                                 const std::string& frame) {
   // The kernel charges each datagram's buffer overhead to SO_RCVBUF too; LCM's fragments
   // are large (up to 64 kB on loopback), so the payload it holds is close to the value.
   if (!buffer.udpm || buffer.granted_bytes <= 0 || buffer.granted_bytes >= frame_bytes) return "";
@@ -178,11 +179,12 @@ std::string ReceiveBufferWarning(const ReceiveBuffer& buffer, int64_t frame_byte
        << (buffer.requested_bytes > 0
                ? ", " + std::to_string(buffer.requested_bytes) + " requested"
                : std::string(", kernel default"))
-       << ") cannot hold one frame (" << frame_bytes
-       << " bytes): frames will be lost whenever the service falls behind by a frame. Add "
-          "?recv_buf_size=N to the LCM URL ('"
+       << ") cannot hold one frame (" << frame_bytes << " bytes"
+       << (frame.empty() ? "" : ", " + frame)
+       << "): the kernel drops a frame's fragments whenever LCM's receive thread falls "
+          "behind, and the frame is lost. Add ?recv_buf_size=N to the LCM URL ('"
        << buffer.url
-       << "') with N at least a few frames, and raise the kernel's cap (sudo sysctl -w "
+       << "') with N a few frames, and raise the kernel's cap to match (sudo sysctl -w "
           "net.core.rmem_max=N)";
   return text.str();
 }

@@ -110,8 +110,10 @@ constexpr int64_t kVgaFrameBytes = 640 * 480 * (3 + 2 + 1);
 /// kernel granted (capped by net.core.rmem_max; Linux reports twice the request).
 ReceiveBuffer ProbeReceiveBuffer(const std::string& lcm_url);
 
-/// A warning when `buffer` cannot hold one frame of `frame_bytes`, naming the URL option
-/// and the sysctl to change; empty when it can or when the URL is not udpm.
-std::string ReceiveBufferWarning(const ReceiveBuffer& buffer, int64_t frame_bytes);
+/// A warning when `buffer` cannot hold one frame of `frame_bytes` (`frame`: which frame,
+/// for the message), naming the URL option and the sysctl to change; empty when it can or
+/// when the URL is not udpm.
+std::string ReceiveBufferWarning(const ReceiveBuffer& buffer, int64_t frame_bytes,
+                                 const std::string& frame = "");
 
 }  // namespace g6d

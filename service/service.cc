@@ -95,7 +95,7 @@ void Service::Start() {
                  options_.debug_images.channel, DebugImageTypeName(options_.debug_images.type),
                  options_.debug_images.jpeg_quality, options_.debug_images.max_rate_hz);
   }
-  CheckReceiveBuffer(kVgaFrameBytes, "a 640x480 RGB + depth + labels frame, uncompressed");
+  CheckReceiveBuffer(kVgaFrameBytes, "a 640x480 RGB8 + depth U16 + labels U8 frame, uncompressed");
   const TrackerOptions& tracking = options_.tracking;
   if (tracking.enabled) {
     spdlog::info(
@@ -604,14 +604,14 @@ void Service::CountSource(const std::string& camera_id, int64_t seq, int64_t enc
   if (!warning.empty()) spdlog::warn("{}", warning);
   if (!checked_first_frame_) {
     checked_first_frame_ = true;
-    CheckReceiveBuffer(encoded_bytes, "the first frame, '" + camera_id + "' seq " +
-                                          std::to_string(seq) + ", as sent");
+    CheckReceiveBuffer(encoded_bytes, "the first frame as sent: camera '" + camera_id +
+                                          "' seq " + std::to_string(seq));
   }
 }
 
 void Service::CheckReceiveBuffer(int64_t frame_bytes, const std::string& what) const {
-  const std::string warning = ReceiveBufferWarning(receive_buffer_, frame_bytes);
-  if (!warning.empty()) spdlog::warn("{} ({})", warning, what);
+  const std::string warning = ReceiveBufferWarning(receive_buffer_, frame_bytes, what);
+  if (!warning.empty()) spdlog::warn("{}", warning);
 }
 
 void Service::FillSourceStatus(service_status_t* status) const {
