@@ -354,9 +354,10 @@ TEST_F(ServiceProcessTest, TwoServicesOnOneBusAnswerOnlyTheirOwnFrames) {
   }
   EXPECT_NE(services[1]->Log().find("camera 'cam1': 1 frame lost"), std::string::npos)
       << services[1]->Log();
-  // g6d-status shows both services, each with its camera and counts.
+  // g6d-status shows both services, each with its camera and counts (4 s: its start takes
+  // up to about 2 s under ThreadSanitizer, then a 1 Hz status from each).
   const test::CommandResult table =
-      test::RunCommand(kStatusBinary + " --lcm-url '" + url + "' --once --wait-s 2.5 2>&1");
+      test::RunCommand(kStatusBinary + " --lcm-url '" + url + "' --once --wait-s 4 2>&1");
   EXPECT_EQ(table.exit_code, 0) << table.output;
   for (size_t c = 0; c < cameras.size(); ++c) {
     std::istringstream line(StatusLineOf(table.output, "G6D_STATUS_" + cameras[c]));
