@@ -18,10 +18,13 @@
 // than 2 min) to the end, its threads and descriptors were constant after the reference
 // time, every bad frame was answered with an error (or, for the kinds that pass validation
 // and only fail per instance, dropped in the mailbox like any frame), no good frame was
-// rejected and no frame is unaccounted for.
+// rejected and no frame is unaccounted for; with --withhold-every N (every Nth good frame's
+// seq skipped, nothing sent) the service's frames_lost must equal the seq gaps it was
+// given (plus at most the frames the kernel dropped).
 //
 //   g6d-bench-soak --templates out/soak/sample/caches --log out/soak/sample/sample.lcmlog
-//       [--duration-s 600] [--rate-hz 30] [--bad-every 2] [--service-bin build/service/g6d-service]
+//       [--duration-s 600] [--rate-hz 30] [--bad-every 2] [--withhold-every N]
+//       [--service-bin build/service/g6d-service]
 //       [--service-log service.log] [--summary-json F] [--samples-csv F] [--plot F.png]
 //
 // Exit code: 0 pass, 1 a criterion failed (the summary says which), 2 the run could not be
@@ -102,6 +105,9 @@ struct SoakOptions {
   double duration_s = 600.0;                  ///< length of the load phase, seconds
   double rate_hz = 30.0;                      ///< messages per second (good and bad together)
   int bad_every = 2;                          ///< every Nth message is bad (0 = none, 1 = all)
+  /// Every Nth good frame is withheld: its seq is skipped, nothing is sent, and the
+  /// service must count it lost (frames_lost); 0 = none.
+  int withhold_every = 0;
   int workers = 2;                            ///< --workers of the service
   int hypotheses = 0;  ///< --hypotheses K of the service; 0 = the service's default
   std::vector<std::string> service_args;    ///< more arguments for the service, as given
@@ -123,6 +129,7 @@ struct SoakOptions {
     if (!(duration_s > 0.0)) return "--duration-s must be > 0";
     if (!(rate_hz > 0.0) || rate_hz > 1000.0) return "--rate-hz must be in (0, 1000]";
     if (bad_every < 0) return "--bad-every must be >= 0";
+    if (withhold_every < 0) return "--withhold-every must be >= 0";
     if (workers < 1) return "--workers must be >= 1";
     if (hypotheses < 0) return "--hypotheses must be >= 0";
     if (!(max_rss_growth_pct >= 0.0)) return "--max-rss-growth-pct must be >= 0";
@@ -418,6 +425,13 @@ class AnswerCollector {
     tally_.kinds.resize(cases->size());
   }
 
+  /// Records that message `seq` was withheld (never sent): its seq is a gap for the service.
+  void Withheld(int64_t seq) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    G6D_CHECK(seq == static_cast<int64_t>(messages_.size()) + 1);
+    messages_.push_back({kWithheld, Clock::now(), false});
+  }
+
   /// Records message `seq` (= 1, 2, ... in send order) of kind `kind` (-1 = good).
   void Sent(int64_t seq, int kind, Clock::time_point at) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -446,7 +460,8 @@ class AnswerCollector {
         seq = unnamed_.front();
         unnamed_.pop_front();
       }
-      if (seq < 1 || seq > static_cast<int64_t>(messages_.size())) {
+      if (seq < 1 || seq > static_cast<int64_t>(messages_.size()) ||
+          messages_[seq - 1].kind == kWithheld) {
         ++tally_.unmatched;
       } else if (messages_[seq - 1].answered) {
         ++tally_.duplicates;
@@ -499,8 +514,9 @@ class AnswerCollector {
   }
 
  private:
+  static constexpr int kWithheld = -2;
   struct Message {
-    int kind = -1;  ///< -1 good, else index into cases_
+    int kind = -1;  ///< -1 good, kWithheld, else index into cases_
     Clock::time_point sent;
     bool answered = false;
   };
@@ -582,6 +598,11 @@ struct SoakReport {
   /// Kernel drops on the UDP sockets of the service and of the bench (-1 = unknown).
   int64_t service_udp_drops = -1, bench_udp_drops = -1;
   int64_t mailbox_sent = 0, mailbox_unanswered = 0;  ///< good + instance-error frames
+  // Seq gaps (--withhold-every): good frames withheld, and the gaps the service should see:
+  // withheld frames and bad messages it cannot read a seq from, each before a later
+  // message it can (the service counts no gap before its first frame or after its last).
+  int64_t withheld = 0, expected_gaps = 0;
+  int64_t service_lost = 0, service_out_of_order = 0;  ///< from the service's last status
   // Process.
   double reference_s = 0.0;  ///< where the growth is measured from
   Sample reference, end;
@@ -608,6 +629,8 @@ void Evaluate(const SoakOptions& options, const std::vector<BadCase>& cases,
   }
   report->answered = t.good.answered;
   for (const KindCounts& k : t.kinds) report->answered += k.answered;
+  report->service_lost = t.status.frames_lost;
+  report->service_out_of_order = t.status.frames_out_of_order;
   report->lost = report->sent - report->answered - report->dropped - report->stale;
   report->not_received = report->sent - report->received;
   report->unaccounted =
@@ -734,6 +757,19 @@ void Evaluate(const SoakOptions& options, const std::vector<BadCase>& cases,
   }
   if (t.good.rejected > 0)
     fail.push_back(text(t.good.rejected, " good frames rejected: ", t.good.example));
+  // Every gap must be counted, and nothing else: frames the kernel dropped (not received)
+  // are gaps too, so they widen the bound.
+  if (t.has_status && !report->crashed &&
+      (report->service_lost < report->expected_gaps ||
+       report->service_lost > report->expected_gaps + report->not_received)) {
+    fail.push_back(text("the service counted ", report->service_lost, " frames lost; expected ",
+                        report->expected_gaps, " seq gaps (", report->withheld, " withheld)",
+                        report->not_received > 0
+                            ? text(" plus up to ", report->not_received, " not received")
+                            : std::string()));
+  }
+  if (report->service_out_of_order > 0)
+    report->notes.push_back(text(report->service_out_of_order, " frames out of order"));
   if (t.duplicates > 0) fail.push_back(text(t.duplicates, " duplicate answers"));
   if (t.unmatched > 0) fail.push_back(text(t.unmatched, " answers to no message of this run"));
   if (!report->final_status && report->exit.Clean())
@@ -773,6 +809,11 @@ void PrintSummary(const SoakOptions& options, const std::vector<BadCase>& cases,
       static_cast<long long>(r.answers_missing));
   std::printf("           service: processed %lld (answered OK), rejected %lld (BAD_FRAME)\n",
               static_cast<long long>(r.processed), static_cast<long long>(r.rejected));
+  std::printf(
+      "seq gaps   withheld %lld good frames; expected gaps %lld; service: lost %lld, "
+      "out of order %lld\n",
+      static_cast<long long>(r.withheld), static_cast<long long>(r.expected_gaps),
+      static_cast<long long>(r.service_lost), static_cast<long long>(r.service_out_of_order));
   std::printf("           kernel UDP drops: service sockets %lld, bench sockets %lld\n",
               static_cast<long long>(r.service_udp_drops),
               static_cast<long long>(r.bench_udp_drops));
@@ -888,6 +929,7 @@ nlohmann::ordered_json SummaryJson(const SoakOptions& options, const std::vector
                     {"duration_s", options.duration_s},
                     {"rate_hz", options.rate_hz},
                     {"bad_every", options.bad_every},
+                    {"withhold_every", options.withhold_every},
                     {"workers", options.workers},
                     {"hypotheses", options.hypotheses},
                     {"service_args", options.service_args},
@@ -922,7 +964,11 @@ nlohmann::ordered_json SummaryJson(const SoakOptions& options, const std::vector
                      {"mailbox_sent", r.mailbox_sent},
                      {"mailbox_unanswered", r.mailbox_unanswered},
                      {"frame_error_sent", r.frame_error_sent},
-                     {"frame_error_unanswered", r.frame_error_unanswered}};
+                     {"frame_error_unanswered", r.frame_error_unanswered},
+                     {"withheld", r.withheld},
+                     {"expected_gaps", r.expected_gaps},
+                     {"service_lost", r.service_lost},
+                     {"service_out_of_order", r.service_out_of_order}};
   out["good"] = {{"sent", t.good.sent},
                  {"answered", t.good.answered},
                  {"frame_ok", t.good.frame_ok},
@@ -1140,6 +1186,8 @@ int RunSoak(const SoakOptions& options) {
   const Clock::time_point start = Clock::now();
   Clock::time_point next_sample = start, next_progress = start;
   size_t next_good = 0, next_bad = 0;
+  int64_t pending_gaps = 0;  // seqs the service cannot see since the last one it can
+  bool named_sent = false;   // a message with a readable seq was sent
   std::printf("[soak] %lld messages at %.1f Hz for %.0f s; progress every %.0f s\n",
               static_cast<long long>(total), options.rate_hz, options.duration_s,
               options.progress_s);
@@ -1188,7 +1236,23 @@ int RunSoak(const SoakOptions& options) {
       kind = static_cast<int>(next_bad++ % bad_frames.size());
       bytes = &bad_frames[kind];
     } else {
-      bytes = &good_frames[next_good++ % good_frames.size()];
+      const size_t good_index = next_good++;
+      if (options.withhold_every > 0 &&
+          (good_index + 1) % static_cast<size_t>(options.withhold_every) == 0) {
+        collector.Withheld(seq);
+        ++report.withheld;
+        ++pending_gaps;
+        continue;
+      }
+      bytes = &good_frames[good_index % good_frames.size()];
+    }
+    // A seq the service can read ends the gap before it (none before its first one).
+    if (kind >= 0 && !cases[kind].seq_known) {
+      ++pending_gaps;
+    } else {
+      if (named_sent) report.expected_gaps += pending_gaps;
+      pending_gaps = 0;
+      named_sent = true;
     }
     if (kind < 0 || cases[kind].seq_known) {
       g6d::synthetic::PatchSeq(bytes, seq);
@@ -1281,6 +1345,10 @@ int main(int argc, char** argv) {
   app.add_option("--duration-s", options.duration_s, "length of the load, seconds")
       ->capture_default_str();
   app.add_option("--rate-hz", options.rate_hz, "messages per second, good and bad")
+      ->capture_default_str();
+  app.add_option("--withhold-every", options.withhold_every,
+                 "withhold every Nth good frame (its seq is skipped; the service must count "
+                 "it lost; 0 = none)")
       ->capture_default_str();
   app.add_option("--bad-every", options.bad_every, "every Nth message is bad (0 = none)")
       ->capture_default_str();

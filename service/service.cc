@@ -56,6 +56,7 @@ Service::Service(const ServiceOptions& options, TemplateStore store, lcm::LCM* l
   solver_options_.stop_requested = &stop_solves_;
   service_name_ = options_.name.empty() ? options_.input_channel : options_.name;
   pool_ = std::make_unique<ThreadPool>(options_.workers);
+  receive_buffer_ = ProbeReceiveBuffer(options_.lcm_url);
   if (options_.tracking.enabled && options_.tracking.background_redetect) {
     // Its own stop flag (Stop() ends a running check at once); nice +10: the tracked
     // frames on the pool come first.
@@ -94,6 +95,7 @@ void Service::Start() {
                  options_.debug_images.channel, DebugImageTypeName(options_.debug_images.type),
                  options_.debug_images.jpeg_quality, options_.debug_images.max_rate_hz);
   }
+  CheckReceiveBuffer(kVgaFrameBytes, "a 640x480 RGB8 + depth U16 + labels U8 frame, uncompressed");
   const TrackerOptions& tracking = options_.tracking;
   if (tracking.enabled) {
     spdlog::info(
@@ -176,10 +178,15 @@ void Service::HandleMessage(const void* data, int64_t size, Clock::time_point re
     message = AdaptMessage(options_.input_type, data, size, options_.adapter, options_.limits,
                            input_seq_.fetch_add(1), &header);
   } catch (const Error& e) {
+    std::string camera_id;
+    int64_t seq = 0;
+    if (options_.input_type == InputType::kG6d && PeekRgbdFrameSource(data, size, &camera_id, &seq))
+      CountSource(camera_id, seq, size);
     Reject(header, e.what(), received, SecondsBetween(received, Clock::now()));
     return;
   }
   header = HeaderOf(message);
+  CountSource(message.camera_id, message.seq, size);
   if (IsStale(header.utime)) {
     stale_.fetch_add(1);
     return;
@@ -584,7 +591,46 @@ service_status_t Service::MakeStatus() const {
   status.answers_detected = counters.answers_detected;
   status.answers_tracked = counters.answers_tracked;
   status.answers_redetected = counters.answers_redetected;
+  FillSourceStatus(&status);
   return status;
+}
+
+// ---- Sources (issue 24: lost frames are visible) -------------------------------------------
+
+void Service::CountSource(const std::string& camera_id, int64_t seq, int64_t encoded_bytes) {
+  // bot_core.images_t has no seq: the adapter numbers its frames, so gaps mean nothing.
+  const bool has_seq = options_.input_type != InputType::kBotCore;
+  const std::string warning = sources_.Record(camera_id, seq, has_seq);
+  if (!warning.empty()) spdlog::warn("{}", warning);
+  if (!checked_first_frame_) {
+    checked_first_frame_ = true;
+    CheckReceiveBuffer(encoded_bytes, "the first frame as sent: camera '" + camera_id +
+                                          "' seq " + std::to_string(seq));
+  }
+}
+
+void Service::CheckReceiveBuffer(int64_t frame_bytes, const std::string& what) const {
+  const std::string warning = ReceiveBufferWarning(receive_buffer_, frame_bytes, what);
+  if (!warning.empty()) spdlog::warn("{}", warning);
+}
+
+void Service::FillSourceStatus(service_status_t* status) const {
+  const std::vector<SourceCounts> sources = sources_.Sources();
+  status->frames_lost = 0;
+  status->frames_out_of_order = 0;
+  status->recv_buffer_bytes = receive_buffer_.granted_bytes;
+  status->num_sources = static_cast<int32_t>(sources.size());
+  for (const SourceCounts& source : sources) {
+    status->frames_lost += source.lost;
+    status->frames_out_of_order += source.out_of_order;
+    status->source_ids.push_back(source.id);
+    status->source_has_seq.push_back(source.has_seq ? 1 : 0);
+    status->source_received.push_back(source.received);
+    status->source_lost.push_back(source.lost);
+    status->source_out_of_order.push_back(source.out_of_order);
+    status->source_restarts.push_back(source.restarts);
+    status->source_last_seq.push_back(source.last_seq);
+  }
 }
 
 void Service::RecordLatency(double total_s) {

@@ -39,6 +39,7 @@
 #include "g6d/service_status_t.hpp"
 #include "service/background_detector.h"
 #include "service/debug_images.h"
+#include "service/frame_sources.h"
 #include "service/mailbox.h"
 #include "service/service_options.h"
 #include "service/template_store.h"
@@ -147,6 +148,14 @@ class Service {
   void RecordLatency(double total_s);
   /// Offers the job's frame and its published answer to the debug picture thread.
   void OfferDebugImage(const Job& job, const pose_array_t& answer);
+  /// Counts the frame under its camera_id (seq gaps, out of order; frame_sources.h), logs
+  /// a rate-limited loss warning, and checks the receive buffer against the first frame's
+  /// `encoded_bytes`. LCM thread.
+  void CountSource(const std::string& camera_id, int64_t seq, int64_t encoded_bytes);
+  /// Warns when the LCM receive buffer cannot hold a frame of `frame_bytes`.
+  void CheckReceiveBuffer(int64_t frame_bytes, const std::string& what) const;
+  /// The per-source fields of the status (issue 24).
+  void FillSourceStatus(service_status_t* status) const;
 
   const ServiceOptions options_;
   const TemplateStore store_;
@@ -184,6 +193,9 @@ class Service {
   std::atomic<bool> busy_{false};
   mutable std::mutex latency_mutex_;
   std::deque<double> latencies_s_;  ///< the last latency_window end-to-end latencies
+  FrameSources sources_;           ///< arrivals per camera_id: lost, out of order
+  ReceiveBuffer receive_buffer_;   ///< what the kernel grants the udpm socket (probed at construction)
+  bool checked_first_frame_ = false;  ///< the receive buffer was compared with a frame (LCM thread)
   std::mutex log_mutex_;
   Clock::time_point last_reject_log_;
   int64_t unlogged_rejects_ = 0;

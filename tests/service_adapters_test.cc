@@ -157,6 +157,14 @@ TEST_F(ServiceAdapters, DrakeImagesGetTheNativePoseAndARigidTransform) {
   EXPECT_EQ(answer.source_utime, 5007);
   EXPECT_EQ(answer.camera_id, "drake_camera");
   EXPECT_EQ(answer.source, "drake");
+  // Drake's header carries a seq: the status counts it under the frame name.
+  const auto status = listeners_[1]->statuses.PopUntil(
+      seconds(30), [](const service_status_t& s) { return s.frames_processed == 1; });
+  ASSERT_TRUE(status.has_value());
+  ASSERT_EQ(status->num_sources, 1);
+  EXPECT_EQ(status->source_ids[0], "drake_camera");
+  EXPECT_EQ(status->source_has_seq[0], 1);
+  EXPECT_EQ(status->source_last_seq[0], 7);
   ASSERT_EQ(answer.num_estimates, 1);
   ASSERT_EQ(reference.num_estimates, 1);
   const pose_estimate_t& estimate = answer.estimates[0];
@@ -199,6 +207,16 @@ TEST_F(ServiceAdapters, BotCoreMjpegImagesAreSolved) {
   EXPECT_LT(
       ComputeAdd(test::PoseOf(answer.estimates[0]), view.cam_from_object, scene_->mesh.vertices),
       0.1 * scene_->bank.diameter_m);
+  // bot_core.images_t has no seq: its source counts frames received, never lost.
+  const auto status = listeners_[0]->statuses.PopUntil(
+      seconds(30), [](const service_status_t& s) { return s.frames_processed == 1; });
+  ASSERT_TRUE(status.has_value());
+  ASSERT_EQ(status->num_sources, 1);
+  EXPECT_EQ(status->source_ids[0], "bot_core");
+  EXPECT_EQ(status->source_has_seq[0], 0);
+  EXPECT_EQ(status->source_received[0], 1);
+  EXPECT_EQ(status->source_last_seq[0], -1);
+  EXPECT_EQ(status->frames_lost, 0);
 }
 
 TEST_F(ServiceAdapters, BadForeignMessagesGetErrorAnswers) {

@@ -34,6 +34,19 @@ namespace {
 using std::chrono::seconds;
 
 const std::string kServiceBinary = test::BinaryDir() + "/service/g6d-service";
+const std::string kStatusBinary = test::BinaryDir() + "/tools/g6d-status";
+
+/// The line of g6d-status output that ends with `channel`, or empty.
+std::string StatusLineOf(const std::string& output, const std::string& channel) {
+  std::istringstream lines(output);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.size() >= channel.size() &&
+        line.compare(line.size() - channel.size(), channel.size(), channel) == 0) {
+      return line;
+    }
+  }
+  return "";
+}
 
 /// A udpm URL on a port no other test run uses at the same time. Frames are a few hundred
 /// kB even compressed: a 4 MB socket receive buffer (capped by net.core.rmem_max) keeps
@@ -302,11 +315,11 @@ TEST_F(ServiceProcessTest, TwoServicesOnOneBusAnswerOnlyTheirOwnFrames) {
   }
 
   // Three frames per camera, alternating; each must come back on its own camera's
-  // channel only.
+  // channel only. cam1's publisher skips every other seq (10, 12, 14): 2 frames lost.
   const int kFramesPerCamera = 3;
   for (int i = 0; i < kFramesPerCamera; ++i) {
     for (size_t c = 0; c < cameras.size(); ++c) {
-      const int64_t seq = 10 * static_cast<int64_t>(c) + i;
+      const int64_t seq = 10 * static_cast<int64_t>(c) + i * (static_cast<int64_t>(c) + 1);
       const rgbd_frame_t frame = test::MakeRgbdFrame(scene_->views[i % 3], seq, test::kBoxId,
                                                      cameras[c], image_t::COMPRESSION_PNG);
       ASSERT_EQ(lcm.publish("G6D_RGBD_" + cameras[c], &frame), 0);
@@ -328,7 +341,36 @@ TEST_F(ServiceProcessTest, TwoServicesOnOneBusAnswerOnlyTheirOwnFrames) {
     EXPECT_EQ(status->frames_received, kFramesPerCamera);
     EXPECT_EQ(status->frames_rejected, 0);
     EXPECT_EQ(listeners[c]->answers.Size(), 0u);
+    // Its status names its camera, the only source it saw, and the frames cam1 skipped.
+    ASSERT_EQ(status->num_sources, 1);
+    EXPECT_EQ(status->source_ids[0], cameras[c]);
+    EXPECT_EQ(status->source_received[0], kFramesPerCamera);
+    EXPECT_EQ(status->source_lost[0], c == 0 ? 0 : 2);
+    EXPECT_EQ(status->frames_lost, c == 0 ? 0 : 2);
+    EXPECT_EQ(status->frames_out_of_order, 0);
+    EXPECT_EQ(status->source_last_seq[0], c == 0 ? 2 : 14);
+    // recv_buf_size=4194304 asked: the kernel grants it within net.core.rmem_max.
+    EXPECT_GT(status->recv_buffer_bytes, 0);
   }
+  EXPECT_NE(services[1]->Log().find("camera 'cam1': 1 frame lost"), std::string::npos)
+      << services[1]->Log();
+  // g6d-status shows both services, each with its camera and counts (4 s: its start takes
+  // up to about 2 s under ThreadSanitizer, then a 1 Hz status from each).
+  const test::CommandResult table =
+      test::RunCommand(kStatusBinary + " --lcm-url '" + url + "' --once --wait-s 4 2>&1");
+  EXPECT_EQ(table.exit_code, 0) << table.output;
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    std::istringstream line(StatusLineOf(table.output, "G6D_STATUS_" + cameras[c]));
+    std::vector<std::string> f;
+    for (std::string word; line >> word;) f.push_back(word);
+    ASSERT_GE(f.size(), 16u) << table.output;
+    EXPECT_EQ(f[0], cameras[c]);                             // name
+    EXPECT_EQ(f[1], cameras[c]);                             // sources
+    EXPECT_EQ(f[3], std::to_string(kFramesPerCamera));       // received
+    EXPECT_EQ(f[4], std::to_string(kFramesPerCamera));       // processed
+    EXPECT_EQ(f[8], c == 0 ? "0" : "2");                     // lost
+  }
+  std::cout << table.output;
   for (size_t c = 0; c < cameras.size(); ++c) {
     double elapsed_s = 0.0;
     const std::optional<int> exit_status =
