@@ -137,6 +137,7 @@ void FillStoreStatus(const TemplateStore& store, bool reload, service_status_t* 
     const LoadedCache* cache = store.Find(id);
     status->object_cache_hashes.push_back(cache ? cache->hash : std::string());
   }
+  status->num_cache_hashes = static_cast<int32_t>(status->object_cache_hashes.size());
   status->reload = reload ? 1 : 0;
   status->cache_generation = store.generation;
   status->refused_files.clear();
