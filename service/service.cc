@@ -7,7 +7,9 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <sstream>
+#include <system_error>
 
 #include "bot_core/rigid_transform_t.hpp"
 #include "core/error.h"
@@ -48,7 +50,11 @@ constexpr size_t kBackgroundQueue = 4;
 constexpr int kBackgroundNice = 10;
 
 Service::Service(const ServiceOptions& options, TemplateStore store, lcm::LCM* lcm)
-    : options_(Checked(options)), store_(std::move(store)), lcm_(lcm), tracker_(options_.tracking) {
+    : options_(Checked(options)),
+      store_(std::make_shared<const TemplateStore>(std::move(store))),
+      frame_store_(store_),
+      lcm_(lcm),
+      tracker_(options_.tracking) {
   if (lcm_ == nullptr || !lcm_->good()) G6D_THROW("Service: the LCM instance is not usable");
   solver_options_ = options_.solver;
   // Shutdown cuts running solves short (each returns its best pose so far within about a
@@ -81,6 +87,14 @@ void Service::Start() {
     G6D_THROW("Service::Start: cannot subscribe to '" << options_.input_channel << "'");
   }
   subscription_->setQueueCapacity(options_.subscription_queue);
+  // Before the status thread, which reads watcher_.
+  try {
+    StartWatcher();
+  } catch (...) {
+    lcm_->unsubscribe(subscription_);
+    subscription_ = nullptr;
+    throw;
+  }
   started_ = true;
   scheduler_thread_ = std::thread([this] { SchedulerLoop(); });
   status_thread_ = std::thread([this] { StatusLoop(); });
@@ -89,7 +103,7 @@ void Service::Start() {
   spdlog::info("serving '{}' ({}) -> '{}' (status '{}'), {} workers, K = {}, objects: {}",
                options_.input_channel, InputTypeName(options_.input_type),
                options_.output_channel, options_.status_channel,
-               options_.workers, solver_options_.num_hypotheses, JoinIds(store_.ObjectIds()));
+               options_.workers, solver_options_.num_hypotheses, JoinIds(Store()->ObjectIds()));
   if (debug_images_) {
     spdlog::info("debug images on '{}' ({}, JPEG quality {}), at most {} per second",
                  options_.debug_images.channel, DebugImageTypeName(options_.debug_images.type),
@@ -117,6 +131,8 @@ void Service::Stop() {
     return;
   }
   stopped_ = true;
+  // 0. No more reloads.
+  if (watcher_) watcher_->Stop();
   // 1. Take no more frames: wake the LCM thread out of poll() and join it.
   if (lcm_thread_) lcm_thread_->Stop();
   lcm_->unsubscribe(subscription_);
@@ -263,7 +279,7 @@ std::optional<pose_estimate_t> Service::SolveInstance(const Job& job, size_t ind
                               "abandoned: the service is shutting down");
   }
   try {
-    *answer = SolveWithPlan(job.decoded.frame, instance, *store_.banks.at(instance.object_id),
+    *answer = SolveWithPlan(job.decoded.frame, instance, *frame_store_->banks.at(instance.object_id),
                             solver_options_, tracker_.options(), plan, pool_.get());
     return std::nullopt;
   } catch (const std::exception& e) {
@@ -278,8 +294,8 @@ std::optional<pose_estimate_t> Service::SolveInstance(const Job& job, size_t ind
 std::vector<TrackPlan> Service::PlanFrame(const Job& job, double time_s,
                                           const std::vector<Instance>& instances) {
   const BankLookup banks = [this](const std::string& object_id) -> const TemplateBank* {
-    const auto bank = store_.banks.find(object_id);
-    return bank == store_.banks.end() ? nullptr : bank->second.get();
+    const auto bank = frame_store_->banks.find(object_id);
+    return bank == frame_store_->banks.end() ? nullptr : bank->second.get();
   };
   try {
     return tracker_.Plan(time_s, instances, job.decoded.frame.camera, banks);
@@ -299,7 +315,7 @@ std::optional<pose_estimate_t> Service::CandidatesOf(const DecodedInstance& requ
                                                      std::vector<const TemplateBank*>* banks) const {
   banks->clear();
   if (request.candidate_ids.empty()) {
-    for (const auto& [object_id, bank] : store_.banks) banks->push_back(bank.get());
+    for (const auto& [object_id, bank] : frame_store_->banks) banks->push_back(bank.get());
     if (banks->empty()) {
       return MakeFailedEstimate(request, pose_estimate_t::STATUS_UNKNOWN_OBJECT,
                                 "instance " + std::to_string(index) +
@@ -309,12 +325,12 @@ std::optional<pose_estimate_t> Service::CandidatesOf(const DecodedInstance& requ
   }
   for (size_t c = 0; c < request.candidate_ids.size(); ++c) {
     const std::string& id = request.candidate_ids[c];
-    const auto bank = store_.banks.find(id);
-    if (bank == store_.banks.end()) {
+    const auto bank = frame_store_->banks.find(id);
+    if (bank == frame_store_->banks.end()) {
       return MakeFailedEstimate(request, pose_estimate_t::STATUS_UNKNOWN_OBJECT,
                                 "instance " + std::to_string(index) + " (identity unknown): candidate '" +
                                     id + "' has no template cache (loaded: " +
-                                    JoinIds(store_.ObjectIds()) + ")");
+                                    JoinIds(frame_store_->ObjectIds()) + ")");
     }
     banks->push_back(bank->second.get());
   }
@@ -343,6 +359,7 @@ pose_estimate_t Service::IdentifyInstance(const Job& job, size_t index,
 
 void Service::ProcessJob(const Job& job) {
   const Clock::time_point picked = Clock::now();
+  TakeStoreForFrame();
   const size_t n = job.decoded.instances.size();
   std::vector<pose_estimate_t> estimates(n);
   // The instances the solver can take (valid, with a bank) go to the tracker and the
@@ -365,10 +382,10 @@ void Service::ProcessJob(const Job& job) {
         searched.push_back(i);
         candidates.push_back(std::move(banks));
       }
-    } else if (store_.banks.count(request.object_id) == 0) {
+    } else if (frame_store_->banks.count(request.object_id) == 0) {
       estimates[i] = MakeFailedEstimate(request, pose_estimate_t::STATUS_UNKNOWN_OBJECT,
                                         "no template cache for object id '" + request.object_id +
-                                            "' (loaded: " + JoinIds(store_.ObjectIds()) + ")");
+                                            "' (loaded: " + JoinIds(frame_store_->ObjectIds()) + ")");
     } else {
       solvable.push_back(i);
       instances.push_back(Instance{request.object_id, request.mask});
@@ -463,8 +480,8 @@ void Service::OfferDebugImage(const Job& job, const pose_array_t& answer) {
   input.instances = job.decoded.instances;
   input.answer = answer;
   for (const pose_estimate_t& estimate : answer.estimates) {
-    const auto bank = store_.banks.find(estimate.object_id);
-    if (estimate.status == pose_estimate_t::STATUS_OK && bank != store_.banks.end()) {
+    const auto bank = frame_store_->banks.find(estimate.object_id);
+    if (estimate.status == pose_estimate_t::STATUS_OK && bank != frame_store_->banks.end()) {
       input.banks.emplace(estimate.object_id, bank->second);
     }
   }
@@ -495,7 +512,7 @@ void Service::SubmitBackgroundDetections(const Job& job, const std::vector<Insta
     // Deep copies: the decoded images may share the message's buffers.
     check.frame = Frame{job.decoded.frame.camera, job.decoded.frame.rgb.clone(), job.decoded.frame.depth.clone()};
     check.instance = Instance{instances[k].object_id, instances[k].mask.clone()};
-    check.bank = store_.banks.at(instances[k].object_id);
+    check.bank = frame_store_->banks.at(instances[k].object_id);
     check.tracked = answer.result;
     if (!background_->Submit(std::move(check))) {
       // Busy: this check is skipped; the track is due again after redetect_every frames.
@@ -585,8 +602,7 @@ service_status_t Service::MakeStatus() const {
   status.mailbox_full = counters.mailbox_full ? 1 : 0;
   status.workers = options_.workers;
   status.hypotheses = solver_options_.num_hypotheses;
-  status.objects = store_.ObjectIds();
-  status.num_objects = static_cast<int32_t>(status.objects.size());
+  FillStoreStatus(*Store(), watcher_ != nullptr, &status);
   status.tracking = options_.tracking.enabled ? 1 : 0;
   status.answers_detected = counters.answers_detected;
   status.answers_tracked = counters.answers_tracked;
@@ -637,6 +653,69 @@ void Service::RecordLatency(double total_s) {
   std::lock_guard<std::mutex> lock(latency_mutex_);
   latencies_s_.push_back(total_s);
   while (static_cast<int>(latencies_s_.size()) > options_.latency_window) latencies_s_.pop_front();
+}
+
+// ---- Reloading ----------------------------------------------------------------------------
+
+void Service::StartWatcher() {
+  if (!options_.reload) {
+    spdlog::info("reload off: the caches loaded at start are served until the end");
+    return;
+  }
+  std::error_code error;
+  if (!std::filesystem::is_directory(options_.templates_dir, error)) {
+    spdlog::warn("reload: '{}' is not a directory; caches are not reloaded", options_.templates_dir);
+    return;
+  }
+  CacheWatcherOptions watch;
+  watch.dir = options_.templates_dir;
+  watch.scan_period_s = options_.reload_scan_period_s;
+  watcher_ = std::make_unique<CacheWatcher>(
+      watch, *Store(),
+      [this](std::shared_ptr<const TemplateStore> store, const StoreChange& change) {
+        OnStoreChanged(std::move(store), change);
+      });
+  watcher_->Start();
+  spdlog::info("reload on: watching '{}' ({}, rescan every {} s, SIGHUP rescans now)", watch.dir,
+               watcher_->Inotify() ? "inotify" : "no inotify", watch.scan_period_s);
+}
+
+std::shared_ptr<const TemplateStore> Service::Store() const {
+  std::lock_guard<std::mutex> lock(store_mutex_);
+  return store_;
+}
+
+void Service::ReloadCaches() {
+  if (watcher_) {
+    spdlog::info("reload: rescanning '{}' now", options_.templates_dir);
+    watcher_->Rescan();
+  } else {
+    spdlog::info("reload is off: nothing to rescan");
+  }
+}
+
+void Service::OnStoreChanged(std::shared_ptr<const TemplateStore> store, const StoreChange& change) {
+  std::lock_guard<std::mutex> lock(store_mutex_);
+  store_ = std::move(store);
+  forget_objects_.insert(forget_objects_.end(), change.replaced.begin(), change.replaced.end());
+  forget_objects_.insert(forget_objects_.end(), change.removed.begin(), change.removed.end());
+}
+
+void Service::TakeStoreForFrame() {
+  std::vector<std::string> forget;
+  {
+    std::lock_guard<std::mutex> lock(store_mutex_);
+    frame_store_ = store_;
+    forget.swap(forget_objects_);
+  }
+  // The Tracker is this thread's only: the forgetting happens here, before the plan.
+  for (const std::string& object_id : forget) {
+    const int dropped = tracker_.ForgetObject(object_id);
+    if (dropped > 0) {
+      spdlog::info("object '{}': cache {}; {} track(s) dropped", object_id,
+                   frame_store_->banks.count(object_id) ? "replaced" : "removed", dropped);
+    }
+  }
 }
 
 // ---- Publishing ---------------------------------------------------------------------------

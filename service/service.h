@@ -15,6 +15,10 @@
 ///    takes part), records the answers in the Tracker, publishes the answer. The Tracker
 ///    is touched by this thread only.
 ///  - the status thread: publishes g6d.service_status_t every status_period_s.
+///  - with options.reload, the CacheWatcher's loader thread: reads caches added to or
+///    changed in the templates directory and swaps the store snapshot (cache_watcher.h).
+///    The scheduler takes the snapshot once per frame, and first drops the tracks of the
+///    objects whose cache was replaced or removed.
 ///  - options.workers - 1 pool threads.
 ///  - with --debug-images, the debug picture thread (DebugImagePublisher, nice +10): the
 ///    scheduler offers each answered frame after publishing its answer; the picture is
@@ -38,6 +42,7 @@
 #include "g6d/pose_array_t.hpp"
 #include "g6d/service_status_t.hpp"
 #include "service/background_detector.h"
+#include "service/cache_watcher.h"
 #include "service/debug_images.h"
 #include "service/frame_sources.h"
 #include "service/mailbox.h"
@@ -77,8 +82,10 @@ struct ServiceCounters {
 class Service {
  public:
   /// `lcm` must outlive the service; while started, the service's LCM thread is the only
-  /// one that may call lcm->handle() (other threads may publish and subscribe).
-  /// Throws g6d::Error when options.Check() fails or `lcm` is not good.
+  /// one that may call lcm->handle() (other threads may publish and subscribe). With
+  /// options.reload, `store` should be LoadTemplateStore(options.templates_dir): the
+  /// watcher starts from it. Throws g6d::Error when options.Check() fails or `lcm` is
+  /// not good.
   Service(const ServiceOptions& options, TemplateStore store, lcm::LCM* lcm);
   ~Service();
   Service(const Service&) = delete;
@@ -93,6 +100,10 @@ class Service {
   ServiceCounters Counters() const;
   /// The status message the status thread would publish now.
   service_status_t MakeStatus() const;
+  /// What the service serves now (a snapshot: a reload replaces it, never changes it).
+  std::shared_ptr<const TemplateStore> Store() const;
+  /// Rescans the templates directory now (SIGHUP); nothing when reloading is off.
+  void ReloadCaches();
 
  private:
   using Clock = std::chrono::steady_clock;
@@ -156,9 +167,25 @@ class Service {
   void CheckReceiveBuffer(int64_t frame_bytes, const std::string& what) const;
   /// The per-source fields of the status (issue 24).
   void FillSourceStatus(service_status_t* status) const;
+  /// The CacheWatcher's callback (its loader thread): the new store, and the objects
+  /// whose tracks go.
+  void OnStoreChanged(std::shared_ptr<const TemplateStore> store, const StoreChange& change);
+  /// Scheduler thread, before planning a frame: takes the store snapshot into
+  /// frame_store_ and drops the tracks of replaced and removed objects.
+  void TakeStoreForFrame();
+  /// Starts the CacheWatcher when options.reload is on and templates_dir is a directory.
+  void StartWatcher();
 
   const ServiceOptions options_;
-  const TemplateStore store_;
+  /// What the service serves; replaced whole by a reload (store_mutex_).
+  mutable std::mutex store_mutex_;
+  std::shared_ptr<const TemplateStore> store_;
+  /// Objects whose tracks the scheduler drops before it plans its next frame (store_mutex_).
+  std::vector<std::string> forget_objects_;
+  /// The snapshot of the frame being processed: set by the scheduler thread before it
+  /// plans the frame; the pool threads read it while they solve that frame.
+  std::shared_ptr<const TemplateStore> frame_store_;
+  std::unique_ptr<CacheWatcher> watcher_;  ///< null when reloading is off
   lcm::LCM* const lcm_;
   SolverOptions solver_options_;
   std::string service_name_;

@@ -2,9 +2,11 @@
 //
 //   g6d-service --templates DIR [--input G6D_RGBD] [--output G6D_POSES] [--status G6D_STATUS]
 //               [--lcm-url URL] [--workers N] [--hypotheses K] [--max-age-ms MS]
-//               [--tracking on|off] [--track-* ...] [--config FILE.yaml]
+//               [--tracking on|off] [--track-* ...] [--reload on|off] [--config FILE.yaml]
 //
 // Options come from the YAML file first, then from the flags given on the command line.
+// Caches added to, changed in or removed from --templates are loaded while it runs
+// (--reload on, the default); SIGHUP rescans the folder at once.
 // SIGINT/SIGTERM stop it: no new frames, the current one finishes or is abandoned within
 // shutdown_timeout_s, every thread joins, exit code 0.
 #include <spdlog/sinks/stdout_color_sinks.h>
@@ -193,6 +195,16 @@ int main(int argc, char** argv) {
                      "answers the frame (off: in the frame)")
           ->check(CLI::IsMember({"on", "off"}))
           ->capture_default_str();
+  std::string reload_switch = "on";
+  auto* reload = app.add_option("--reload", reload_switch,
+                                "on|off: load caches added to, changed in or removed from --templates "
+                                "while running (inotify, a periodic rescan, SIGHUP)")
+                     ->check(CLI::IsMember({"on", "off"}))
+                     ->capture_default_str();
+  auto* reload_period = app.add_option("--reload-scan-period-s", flags.reload_scan_period_s,
+                                       "period of the fallback rescan of --templates, seconds (0 = "
+                                       "inotify and SIGHUP only)")
+                            ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   g6d::ServiceOptions options = defaults;
@@ -236,6 +248,8 @@ int main(int argc, char** argv) {
     options.tracking.max_periodic_per_frame = flags.tracking.max_periodic_per_frame;
   if (given(track_velocity)) options.tracking.constant_velocity = velocity_switch == "on";
   if (given(redetect_background)) options.tracking.background_redetect = background_switch == "on";
+  if (given(reload)) options.reload = reload_switch == "on";
+  if (given(reload_period)) options.reload_scan_period_s = flags.reload_scan_period_s;
   try {
     if (given(input_type_option)) options.input_type = g6d::ParseInputType(input_type);
     if (given(camera_option)) options.adapter.camera = g6d::LoadCameraYaml(camera_file);
@@ -249,13 +263,15 @@ int main(int argc, char** argv) {
     return 2;
   }
 
-  // SIGINT/SIGTERM are blocked in every thread (threads inherit the mask) and taken by
-  // sigwait() below: no handler runs in an arbitrary thread.
-  sigset_t stop_signals;
-  sigemptyset(&stop_signals);
-  sigaddset(&stop_signals, SIGINT);
-  sigaddset(&stop_signals, SIGTERM);
-  pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+  // SIGINT/SIGTERM (stop) and SIGHUP (rescan the caches) are blocked in every thread
+  // (threads inherit the mask) and taken by sigwait() below: no handler runs in an
+  // arbitrary thread.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGHUP);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
   g6d::TemplateStore store;
   try {
@@ -265,16 +281,16 @@ int main(int argc, char** argv) {
     return 2;
   }
   for (const g6d::LoadedCache& cache : store.loaded) {
-    spdlog::info("loaded '{}' from {} ({} templates, diameter {:.1f} mm)", cache.object_id,
-                 cache.path, cache.num_templates, cache.diameter_m * 1e3);
+    spdlog::info("loaded '{}' from {} ({} templates, diameter {:.1f} mm, hash {})", cache.object_id,
+                 cache.path, cache.num_templates, cache.diameter_m * 1e3, cache.hash);
   }
   for (const g6d::RefusedCache& cache : store.refused) {
     spdlog::warn("refused {}: {}", cache.path, cache.reason);
   }
   if (store.banks.empty()) {
     spdlog::warn(
-        "no template cache loaded from '{}': every instance will be answered UNKNOWN_OBJECT",
-        options.templates_dir);
+        "no template cache loaded from '{}': every instance will be answered UNKNOWN_OBJECT{}",
+        options.templates_dir, options.reload ? " until a cache is added there" : "");
   }
 
   lcm::LCM lcm(options.lcm_url);
@@ -287,7 +303,7 @@ int main(int argc, char** argv) {
     g6d::Service service(options, std::move(store), &lcm);
     service.Start();
     int signal_number = 0;
-    sigwait(&stop_signals, &signal_number);
+    while (sigwait(&signals, &signal_number) == 0 && signal_number == SIGHUP) service.ReloadCaches();
     spdlog::info("{}: stopping", signal_number == SIGINT ? "SIGINT" : "SIGTERM");
     StopWithin(options.shutdown_timeout_s, [&] { service.Stop(); });
   } catch (const std::exception& e) {

@@ -38,6 +38,8 @@ std::string ServiceOptions::Check() const {
     out << "latency_window must be >= 1 (got " << latency_window << ")";
   else if (!std::isfinite(shutdown_timeout_s) || shutdown_timeout_s < 0.0)
     out << "shutdown_timeout_s must be >= 0 (got " << shutdown_timeout_s << ")";
+  else if (!std::isfinite(reload_scan_period_s) || reload_scan_period_s < 0.0)
+    out << "reload_scan_period_s must be >= 0 (got " << reload_scan_period_s << ")";
   else if (const std::string error = limits.Check(); !error.empty())
     out << "limits." << error;
   else if (const std::string error = solver.Check(); !error.empty())
@@ -141,6 +143,8 @@ void ParseServiceOptionsYaml(const std::string& text, const std::string& name,
             {"status_period_s", double_field(&o.status_period_s)},
             {"latency_window", int_field(&o.latency_window)},
             {"shutdown_timeout_s", double_field(&o.shutdown_timeout_s)},
+            {"reload", bool_field(&o.reload)},
+            {"reload_scan_period_s", double_field(&o.reload_scan_period_s)},
             {"input_type",
              [&](const YAML::Node& n, const std::string& key) {
                try {

@@ -58,6 +58,14 @@ struct ServiceOptions {
   /// Debug pictures (--debug-images CHANNEL): the frame with each answer drawn on it,
   /// JPEG, at most debug_images.max_rate_hz; off (no channel) by default.
   DebugImageOptions debug_images;
+  /// Load caches added to, changed in or removed from templates_dir while running
+  /// (README, "Adding objects while it runs"): inotify, a rescan every
+  /// reload_scan_period_s, and SIGHUP. Off: the caches loaded at start are served until
+  /// the end.
+  bool reload = true;
+  /// Period of the fallback rescan of templates_dir, seconds (events can be lost, e.g. on
+  /// a network file system); 0 = inotify events and SIGHUP only.
+  double reload_scan_period_s = 2.0;
   /// Solver options; `solver.num_hypotheses` is K (--hypotheses). The solver's own
   /// defaults, K = 18 included: since issue 13 a K = 18 solve costs less than K = 4 did
   /// before (README, "The service"), so the service no longer trades accuracy for speed by
@@ -83,7 +91,8 @@ struct ServiceOptions {
 /// ParseCameraYaml) or camera_file, labels (label value -> object id) or label_map_file,
 /// camera_id, publish_rigid_transforms, rigid_transform_prefix, debug_images (a channel),
 /// debug_images_hz, debug_images_type (bot_core|g6d), debug_images_jpeg_quality,
-/// subscription_queue, status_period_s, latency_window, shutdown_timeout_s,
+/// subscription_queue, status_period_s, latency_window, shutdown_timeout_s, reload,
+/// reload_scan_period_s,
 /// limits: {max_width, max_height, max_raw_bytes, max_instances},
 /// solver: {max_sets, hamming_threshold, min_correspondences, query_features, run_icp,
 /// run_mhpo, mhpo_max_rounds, early_stop_score, reject_border_masks,

@@ -324,4 +324,31 @@ TEST(GeneratedBindings, JarAndPythonHoldEveryPackage) {
   }
 }
 
+// The fingerprint of g6d.service_status_t before the cache reloading fields (issue 24:
+// reload, cache_generation, object_cache_hashes, refused_files, refused_reasons).
+constexpr int64_t kServiceStatusHashBeforeReload = static_cast<int64_t>(0xcd1f4af21bca1ad9ULL);
+
+TEST(ServiceStatus, ReloadFieldsRoundTripAndChangeTheFingerprint) {
+  EXPECT_NE(g6d::service_status_t::getHash(), kServiceStatusHashBeforeReload);
+  g6d::service_status_t status{};
+  status.objects = {"obj_000001", "obj_000005"};
+  status.num_objects = 2;
+  status.object_cache_hashes = {"0123456789abcdef", "fedcba9876543210"};
+  status.num_cache_hashes = 2;
+  status.reload = 1;
+  status.cache_generation = 7;
+  status.refused_files = {"/caches/bad.g6dcache"};
+  status.refused_reasons = {"corrupted: checksum mismatch"};
+  status.num_refused = 1;
+  std::vector<uint8_t> bytes(static_cast<size_t>(status.getEncodedSize()));
+  ASSERT_EQ(status.encode(bytes.data(), 0, static_cast<int>(bytes.size())), static_cast<int>(bytes.size()));
+  g6d::service_status_t decoded;
+  ASSERT_EQ(decoded.decode(bytes.data(), 0, static_cast<int>(bytes.size())), static_cast<int>(bytes.size()));
+  EXPECT_EQ(decoded.object_cache_hashes, status.object_cache_hashes);
+  EXPECT_EQ(decoded.reload, 1);
+  EXPECT_EQ(decoded.cache_generation, 7);
+  EXPECT_EQ(decoded.refused_files, status.refused_files);
+  EXPECT_EQ(decoded.refused_reasons, status.refused_reasons);
+}
+
 }  // namespace

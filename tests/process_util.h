@@ -71,6 +71,9 @@ class ChildProcess {
     return true;
   }
 
+  /// Sends `signal` (e.g. SIGHUP); returns kill()'s result (-1 when not running).
+  int Signal(int signal) { return pid_ > 0 ? ::kill(pid_, signal) : -1; }
+
   /// Sends SIGTERM and waits; returns the exit code (-1 when killed by a signal or never
   /// started).
   int Stop() {

@@ -298,5 +298,18 @@ TEST(ServiceOptions, CheckNamesBadDebugImageFields) {
   EXPECT_THAT(options.Check(), HasSubstr("debug_images channel"));
 }
 
+TEST(ParseServiceOptionsYaml, ReadsTheReloadKeysAndCheckNamesABadPeriod) {
+  ServiceOptions options = Valid();
+  EXPECT_TRUE(options.reload);
+  EXPECT_GT(options.reload_scan_period_s, 0.0);
+  ParseServiceOptionsYaml("reload: false\nreload_scan_period_s: 0\n", "test.yaml", &options);
+  EXPECT_FALSE(options.reload);
+  EXPECT_EQ(options.reload_scan_period_s, 0.0);
+  EXPECT_EQ(options.Check(), "");  // 0: inotify and SIGHUP only
+  options.reload_scan_period_s = -1.0;
+  EXPECT_THAT(options.Check(), HasSubstr("reload_scan_period_s"));
+  EXPECT_THROW(ParseServiceOptionsYaml("reload: sometimes\n", "test.yaml", &options), Error);
+}
+
 }  // namespace
 }  // namespace g6d

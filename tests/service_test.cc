@@ -88,7 +88,7 @@ class ServiceTest : public ::testing::Test {
     TemplateStore store;
     store.banks[test::kBoxId] = std::make_shared<TemplateBank>(scene_->bank);
     store.loaded.push_back({"memory", test::kBoxId, static_cast<int>(scene_->bank.templates.size()),
-                            scene_->bank.diameter_m});
+                            scene_->bank.diameter_m, /*hash=*/"", FileSignature()});
     return store;
   }
 

@@ -208,6 +208,14 @@ std::vector<TrackPlan> Tracker::Plan(double time_s, const std::vector<Instance>&
   return plans;
 }
 
+int Tracker::ForgetObject(const std::string& object_id) {
+  const auto end = std::remove_if(tracks_.begin(), tracks_.end(),
+                                  [&](const Track& track) { return track.object_id == object_id; });
+  const int forgotten = static_cast<int>(tracks_.end() - end);
+  tracks_.erase(end, tracks_.end());
+  return forgotten;
+}
+
 void Tracker::Update(double time_s, const std::vector<TrackPlan>& plans, std::vector<TrackedAnswer>* answers) {
   if (answers->size() != plans.size()) G6D_THROW("Tracker::Update: " << answers->size() << " answers for " << plans.size() << " plans");
   for (size_t i = 0; i < plans.size(); ++i) {

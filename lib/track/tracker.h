@@ -179,6 +179,9 @@ class Tracker {
   const std::vector<Track>& tracks() const { return tracks_; }
   /// Forgets every track.
   void Clear() { tracks_.clear(); }
+  /// Forgets the tracks of `object_id` (its template bank was replaced or removed);
+  /// returns how many.
+  int ForgetObject(const std::string& object_id);
 
  private:
   TrackerOptions options_;
