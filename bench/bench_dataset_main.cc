@@ -21,6 +21,7 @@
 #include "core/timer.h"
 #include "eval/bop.h"
 #include "eval/bop_csv.h"
+#include "detect_benchmark.h"
 #include "eval/mask_degrade.h"
 #include "eval/metrics.h"
 #include "mesh/mesh.h"
@@ -192,6 +193,24 @@ int main(int argc, char** argv) {
   app.add_flag("--no-prescreen", no_prescreen,
                "--identity unknown: solve every candidate (no ruling out of objects shorter than the mask's depth "
                "extent)");
+  // Detection without masks (issue 23).
+  std::string masks = "gt";
+  g6d::DetectOptions detect_options;
+  app.add_option("--masks", masks,
+                 "gt: each instance's GT visible mask (or --degrade-masks); none: no mask at all, the BOP "
+                 "localization task (ids and instance counts from the targets, DetectObjects finds them)")
+      ->check(CLI::IsMember({"gt", "none"}))
+      ->capture_default_str();
+  app.add_option("--detect-extra", detect_options.extra_candidates,
+                 "--masks none: candidate regions solved per object beyond its count")
+      ->capture_default_str();
+  app.add_option("--detect-colour-weight", detect_options.colour_weight,
+                 "--masks none: weight of the colour agreement in the ranking of candidate regions")
+      ->capture_default_str();
+  std::string detect_pictures;
+  app.add_option("--detect-pictures", detect_pictures,
+                 "--masks none: write a picture of the support, segments, solved regions and answers per image "
+                 "into this folder");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -239,6 +258,24 @@ int main(int argc, char** argv) {
     else G6D_THROW("--pnp-solver must be depth, p3p or opencv (got '" << pnp_solver << "')");
     options.pnp.local_optimization = !no_lo;
     if (every < 1) G6D_THROW("--every must be >= 1 (got " << every << ")");
+    if (masks == "none") {
+      if (degrade_mode != "none" || identity != "given" || score_gt || oracle || !records_csv.empty()) {
+        G6D_THROW("--masks none takes none of --degrade-masks, --identity, --score-gt, --oracle, --records");
+      }
+      g6d::bench::DetectBenchmarkArgs detect_args;
+      detect_args.dataset_dir = dataset_dir;
+      detect_args.caches_dir = caches_dir;
+      detect_args.targets_file = targets_file;
+      detect_args.adds_ids = adds_ids;
+      detect_args.out_csv = out_csv;
+      detect_args.pictures_dir = detect_pictures;
+      detect_args.threads = threads;
+      detect_args.every = every;
+      detect_args.limit = limit;
+      detect_args.solver = options;
+      detect_args.detect = detect_options;
+      return g6d::bench::RunDetectBenchmark(detect_args);
+    }
     degrade.mode = g6d::ParseMaskDegradation(degrade_mode);
     if (degrade.size_px < 0) G6D_THROW("--degrade-px must be >= 0 (got " << degrade.size_px << ")");
     if (!(degrade.cut_fraction >= 0.0 && degrade.cut_fraction < 1.0)) {

@@ -1,0 +1,36 @@
+#pragma once
+/// @file detect_benchmark.h
+/// `g6d-bench-dataset --masks none`: the BOP localization task without masks. Per image the
+/// ids of the target objects and their instance counts (test_targets_bop19.json) are all
+/// that is given; DetectObjects finds them, and the answers are scored the BOP'19 way
+/// (EvaluateBop: AR of VSD, MSSD, MSPD, and ADD(-S)@0.1d with the same matching; a wrong
+/// answer among an object's top inst_count by confidence is a miss, as in BOP).
+
+#include <string>
+#include <vector>
+
+#include "solver/detect.h"
+#include "solver/pipeline.h"
+
+namespace g6d::bench {
+
+/// What the run needs.
+struct DetectBenchmarkArgs {
+  std::string dataset_dir;
+  std::string caches_dir;
+  std::string targets_file;   ///< "" = the dataset's test_targets_bop19.json
+  std::vector<int> adds_ids;  ///< objects scored with ADD-S besides models_info's symmetric ones
+  std::string out_csv;        ///< BOP results CSV ("" = none)
+  std::string pictures_dir;   ///< DrawDetectionPicture per image, <dir>/<scene>_<im>.png ("" = none)
+  int threads = 2;
+  int every = 1;              ///< every N-th image only
+  int limit = 0;              ///< at most this many images (0 = all)
+  SolverOptions solver;
+  DetectOptions detect;
+};
+
+/// Runs the benchmark, prints per-image lines to stderr and the tables to stdout. Returns
+/// the process exit code; throws g6d::Error for bad arguments or data.
+int RunDetectBenchmark(const DetectBenchmarkArgs& args);
+
+}  // namespace g6d::bench

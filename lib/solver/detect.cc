@@ -1,0 +1,526 @@
+#include "solver/detect.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <map>
+#include <random>
+#include <set>
+#include <sstream>
+
+#include <Eigen/Eigenvalues>
+#include <opencv2/imgproc.hpp>
+
+#include "core/error.h"
+#include "core/timer.h"
+
+namespace g6d {
+
+std::string DetectOptions::Check() const {
+  std::ostringstream out;
+  const std::string segment_problem = segments.Check();
+  if (!segment_problem.empty()) out << "DetectOptions." << segment_problem;
+  else if (max_planes < 0) out << "DetectOptions.max_planes must be >= 0 (got " << max_planes << ")";
+  else if (plane_iterations < 1) out << "DetectOptions.plane_iterations must be >= 1 (got " << plane_iterations << ")";
+  else if (plane_samples < 3) out << "DetectOptions.plane_samples must be >= 3 (got " << plane_samples << ")";
+  else if (!(plane_flatness_m >= 0.0 && plane_flatness_m < 0.1)) out << "DetectOptions.plane_flatness_m must be in [0, 0.1) m (got " << plane_flatness_m << ")";
+  else if (!(min_plane_fraction > 0.0 && min_plane_fraction <= 1.0)) out << "DetectOptions.min_plane_fraction must be in (0, 1] (got " << min_plane_fraction << ")";
+  else if (!(support_extent_factor >= 1.0)) out << "DetectOptions.support_extent_factor must be >= 1 (got " << support_extent_factor << ")";
+  else if (neighbour_gap_px < 1) out << "DetectOptions.neighbour_gap_px must be >= 1 (got " << neighbour_gap_px << ")";
+  else if (max_union_segments < 1) out << "DetectOptions.max_union_segments must be >= 1 (got " << max_union_segments << ")";
+  else if (max_regions < 1) out << "DetectOptions.max_regions must be >= 1 (got " << max_regions << ")";
+  else if (!(extent_margin_px >= 0.0)) out << "DetectOptions.extent_margin_px must be >= 0 (got " << extent_margin_px << ")";
+  else if (!(min_extent_fraction >= 0.0 && min_extent_fraction < 1.0)) out << "DetectOptions.min_extent_fraction must be in [0, 1) (got " << min_extent_fraction << ")";
+  else if (!(min_area_fraction >= 0.0 && min_area_fraction < 1.0)) out << "DetectOptions.min_area_fraction must be in [0, 1) (got " << min_area_fraction << ")";
+  else if (extra_candidates < 0) out << "DetectOptions.extra_candidates must be >= 0 (got " << extra_candidates << ")";
+  else if (!(colour_weight >= 0.0 && colour_weight <= 1.0)) out << "DetectOptions.colour_weight must be in [0, 1] (got " << colour_weight << ")";
+  else if (!(max_score > 0.0)) out << "DetectOptions.max_score must be > 0 (got " << max_score << ")";
+  else if (!(max_overlap >= 0.0 && max_overlap <= 1.0)) out << "DetectOptions.max_overlap must be in [0, 1] (got " << max_overlap << ")";
+  return out.str();
+}
+
+namespace {
+
+bool ValidDepth(float z) { return z > 0.0f && std::isfinite(z); }
+
+struct Plane {
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+  double offset = 0.0;
+  double Distance(const Eigen::Vector3d& p) const { return normal.dot(p) + offset; }
+};
+
+// Least-squares plane through `points` (centroid and smallest principal axis).
+Plane FitPlaneTo(const std::vector<Eigen::Vector3d>& points) {
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : points) centroid += p;
+  centroid /= static_cast<double>(points.size());
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& p : points) scatter += (p - centroid) * (p - centroid).transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(scatter);
+  Plane plane;
+  plane.normal = eigen.eigenvectors().col(0).normalized();
+  plane.offset = -plane.normal.dot(centroid);
+  return plane;
+}
+
+// How far a depth point may lie from a plane and still be on it.
+class PlaneTolerance {
+ public:
+  explicit PlaneTolerance(const DetectOptions& options)
+      : noise_(options.segments.noise_sigmas * options.segments.sensor_noise_at_1m),
+        flatness_(options.plane_flatness_m) {}
+  double operator()(double z) const { return noise_ * z * z + flatness_; }
+
+ private:
+  double noise_, flatness_;
+};
+
+// The extent of a set of points (largest span over SpanDirections(), no trimming).
+double PointsExtent(const std::vector<Eigen::Vector3d>& points) {
+  Spans spans;
+  spans.low.fill(std::numeric_limits<double>::infinity());
+  spans.high.fill(-std::numeric_limits<double>::infinity());
+  for (const Eigen::Vector3d& p : points) {
+    for (int d = 0; d < kSpanDirections; ++d) {
+      const double x = SpanDirections()[static_cast<size_t>(d)].dot(p);
+      spans.low[static_cast<size_t>(d)] = std::min(spans.low[static_cast<size_t>(d)], x);
+      spans.high[static_cast<size_t>(d)] = std::max(spans.high[static_cast<size_t>(d)], x);
+    }
+  }
+  return points.empty() ? 0.0 : spans.Extent();
+}
+
+// Support planes (DetectOptions): RANSAC on a grid sample of the depth, one plane after the
+// other; a plane's large connected inlier parts are the support. Returns the number of
+// planes removed and fills *support (CV_8U 0/255).
+int FindSupport(const Frame& frame, const DetectOptions& options, double largest_diameter_m, cv::Mat* support) {
+  const cv::Mat& depth = frame.depth;
+  *support = cv::Mat::zeros(depth.size(), CV_8U);
+  int valid = 0;
+  for (int v = 0; v < depth.rows; ++v) {
+    const float* d = depth.ptr<float>(v);
+    for (int u = 0; u < depth.cols; ++u) valid += ValidDepth(d[u]);
+  }
+  if (valid < 3) return 0;
+  const int step = std::max(1, static_cast<int>(std::sqrt(static_cast<double>(valid) / options.plane_samples)));
+  std::vector<Eigen::Vector3d> samples;
+  std::vector<cv::Point> sample_pixels;
+  for (int v = step / 2; v < depth.rows; v += step) {
+    for (int u = step / 2; u < depth.cols; u += step) {
+      const float z = depth.at<float>(v, u);
+      if (!ValidDepth(z)) continue;
+      samples.push_back(frame.camera.Backproject(PixelCentre(u, v), z));
+      sample_pixels.push_back(cv::Point(u, v));
+    }
+  }
+  const PlaneTolerance tolerance(options);
+  const size_t total_samples = samples.size();
+  std::mt19937_64 random(1);
+  int planes = 0;
+  for (int round = 0; round < options.max_planes && samples.size() >= 3; ++round) {
+    std::uniform_int_distribution<size_t> pick(0, samples.size() - 1);
+    auto count_inliers = [&](const Plane& plane) {
+      int count = 0;
+      for (const Eigen::Vector3d& p : samples) count += std::abs(plane.Distance(p)) <= tolerance(p.z());
+      return count;
+    };
+    Plane best;
+    int best_count = -1;
+    for (int iteration = 0; iteration < options.plane_iterations; ++iteration) {
+      const Eigen::Vector3d& a = samples[pick(random)];
+      const Eigen::Vector3d& b = samples[pick(random)];
+      const Eigen::Vector3d& c = samples[pick(random)];
+      const Eigen::Vector3d normal = (b - a).cross(c - a);
+      const double length = normal.norm();
+      if (!(length > 1e-12)) continue;
+      Plane plane;
+      plane.normal = normal / length;
+      plane.offset = -plane.normal.dot(a);
+      const int count = count_inliers(plane);
+      if (count > best_count) {
+        best_count = count;
+        best = plane;
+      }
+    }
+    if (best_count < std::max(3.0, options.min_plane_fraction * static_cast<double>(total_samples))) break;
+    std::vector<Eigen::Vector3d> inlier_points;
+    for (const Eigen::Vector3d& p : samples) {
+      if (std::abs(best.Distance(p)) <= tolerance(p.z())) inlier_points.push_back(p);
+    }
+    const Plane refit = FitPlaneTo(inlier_points);
+    const Plane plane = count_inliers(refit) >= best_count ? refit : best;
+    // Full-resolution inliers, split into connected parts; the parts larger than any object
+    // are support.
+    cv::Mat on_plane = cv::Mat::zeros(depth.size(), CV_8U);
+    for (int v = 0; v < depth.rows; ++v) {
+      const float* d = depth.ptr<float>(v);
+      uint8_t* o = on_plane.ptr<uint8_t>(v);
+      const uint8_t* s = support->ptr<uint8_t>(v);
+      for (int u = 0; u < depth.cols; ++u) {
+        if (s[u] || !ValidDepth(d[u])) continue;
+        const Eigen::Vector3d p = frame.camera.Backproject(PixelCentre(u, v), d[u]);
+        o[u] = std::abs(plane.Distance(p)) <= tolerance(p.z()) ? 255 : 0;
+      }
+    }
+    cv::Mat parts;
+    const int part_count = cv::connectedComponents(on_plane, parts, 8, CV_32S);
+    std::vector<std::vector<Eigen::Vector3d>> part_points(static_cast<size_t>(part_count));
+    for (int v = 0; v < depth.rows; v += 2) {
+      const int* l = parts.ptr<int>(v);
+      for (int u = 0; u < depth.cols; u += 2) {
+        if (l[u] > 0) part_points[static_cast<size_t>(l[u])].push_back(frame.camera.Backproject(PixelCentre(u, v), depth.at<float>(v, u)));
+      }
+    }
+    std::vector<uint8_t> is_support(static_cast<size_t>(part_count), 0);
+    bool any = false;
+    for (int k = 1; k < part_count; ++k) {
+      is_support[static_cast<size_t>(k)] =
+          PointsExtent(part_points[static_cast<size_t>(k)]) > options.support_extent_factor * largest_diameter_m;
+      any = any || is_support[static_cast<size_t>(k)];
+    }
+    if (!any) break;  // the best plane is an object's face, or small: no support left
+    ++planes;
+    for (int v = 0; v < depth.rows; ++v) {
+      const int* l = parts.ptr<int>(v);
+      uint8_t* s = support->ptr<uint8_t>(v);
+      for (int u = 0; u < depth.cols; ++u) {
+        if (l[u] > 0 && is_support[static_cast<size_t>(l[u])]) s[u] = 255;
+      }
+    }
+    std::vector<Eigen::Vector3d> left;
+    std::vector<cv::Point> left_pixels;
+    for (size_t i = 0; i < samples.size(); ++i) {
+      if (support->at<uint8_t>(sample_pixels[i])) continue;
+      left.push_back(samples[i]);
+      left_pixels.push_back(sample_pixels[i]);
+    }
+    samples.swap(left);
+    sample_pixels.swap(left_pixels);
+  }
+  return planes;
+}
+
+// Pairs of segments (1-based labels, a < b) with pixels within `gap_px` of each other.
+std::set<std::pair<int, int>> NeighbourSegments(const cv::Mat& labels, int gap_px) {
+  const int cols = (labels.cols + gap_px - 1) / gap_px, rows = (labels.rows + gap_px - 1) / gap_px;
+  std::vector<std::vector<int>> cells(static_cast<size_t>(cols * rows));
+  for (int v = 0; v < labels.rows; ++v) {
+    const int* l = labels.ptr<int>(v);
+    for (int u = 0; u < labels.cols; ++u) {
+      if (l[u] <= 0) continue;
+      std::vector<int>& cell = cells[static_cast<size_t>((v / gap_px) * cols + u / gap_px)];
+      if (std::find(cell.begin(), cell.end(), l[u]) == cell.end()) cell.push_back(l[u]);
+    }
+  }
+  std::set<std::pair<int, int>> pairs;
+  for (int cy = 0; cy < rows; ++cy) {
+    for (int cx = 0; cx < cols; ++cx) {
+      const std::vector<int>& here = cells[static_cast<size_t>(cy * cols + cx)];
+      for (int dy = 0; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+          if (dy == 0 && dx < 0) continue;
+          const int nx = cx + dx, ny = cy + dy;
+          if (nx < 0 || nx >= cols || ny >= rows) continue;
+          for (int a : here) {
+            for (int b : cells[static_cast<size_t>(ny * cols + nx)]) {
+              if (a != b) pairs.insert({std::min(a, b), std::max(a, b)});
+            }
+          }
+        }
+      }
+    }
+  }
+  return pairs;
+}
+
+// Chromaticity (r, g) = (R, G) / (R + G + B) histograms, kBins x kBins over [0, 1]; colours
+// darker than kMinSum (sum of channels in [0, 3]) carry no reliable chromaticity.
+constexpr int kBins = 12;
+constexpr double kMinSum = 0.15;
+using ChromaHistogram = std::array<double, kBins * kBins>;
+
+void AddColour(double r, double g, double b, ChromaHistogram* histogram, double* total) {
+  const double sum = r + g + b;
+  if (sum < kMinSum) return;
+  const int i = std::min(kBins - 1, static_cast<int>(r / sum * kBins));
+  const int j = std::min(kBins - 1, static_cast<int>(g / sum * kBins));
+  (*histogram)[static_cast<size_t>(i * kBins + j)] += 1.0;
+  *total += 1.0;
+}
+
+void Normalize(double total, ChromaHistogram* histogram) {
+  if (total <= 0.0) return;
+  for (double& h : *histogram) h /= total;
+}
+
+double Bhattacharyya(const ChromaHistogram& a, const ChromaHistogram& b) {
+  double sum = 0.0;
+  for (size_t k = 0; k < a.size(); ++k) sum += std::sqrt(a[k] * b[k]);
+  return sum;
+}
+
+// The full-frame 0/255 mask of a region's segments.
+cv::Mat RegionMask(const cv::Mat& labels, const Proposal& proposal) {
+  cv::Mat mask = cv::Mat::zeros(labels.size(), CV_8U);
+  for (int v = proposal.box.y; v < proposal.box.y + proposal.box.height; ++v) {
+    const int* l = labels.ptr<int>(v);
+    uint8_t* m = mask.ptr<uint8_t>(v);
+    for (int u = proposal.box.x; u < proposal.box.x + proposal.box.width; ++u) {
+      if (l[u] > 0 && std::binary_search(proposal.segments.begin(), proposal.segments.end(), l[u])) m[u] = 255;
+    }
+  }
+  return mask;
+}
+
+// Pixels the two regions share (they share whole segments).
+int SharedPixels(const Proposal& a, const Proposal& b, const std::vector<DepthSegment>& segments) {
+  int shared = 0;
+  for (int s : a.segments) {
+    if (std::binary_search(b.segments.begin(), b.segments.end(), s)) shared += segments[static_cast<size_t>(s - 1)].pixels;
+  }
+  return shared;
+}
+
+// Regions: every segment that fits the largest object and the unions of up to
+// max_union_segments neighbouring ones that still fit it.
+std::vector<Proposal> FormRegions(const DepthSegmentation& segmentation, const std::set<std::pair<int, int>>& neighbours,
+                                  double largest_extent_m, const DetectOptions& options) {
+  const std::vector<DepthSegment>& segments = segmentation.segments;
+  std::map<int, std::vector<int>> adjacent;
+  for (const auto& [a, b] : neighbours) {
+    adjacent[a].push_back(b);
+    adjacent[b].push_back(a);
+  }
+  struct Partial {
+    std::vector<int> members;  // sorted labels
+    Spans spans;
+  };
+  std::set<std::vector<int>> seen;
+  std::vector<Partial> level;
+  for (size_t k = 0; k < segments.size(); ++k) {
+    if (segments[k].spans.Extent() > largest_extent_m) continue;
+    Partial single{{static_cast<int>(k) + 1}, segments[k].spans};
+    seen.insert(single.members);
+    level.push_back(single);
+  }
+  std::vector<Partial> all = level;
+  for (int size = 2; size <= options.max_union_segments && !level.empty(); ++size) {
+    std::vector<Partial> next;
+    for (const Partial& partial : level) {
+      for (int member : partial.members) {
+        for (int other : adjacent[member]) {
+          if (std::binary_search(partial.members.begin(), partial.members.end(), other)) continue;
+          const DepthSegment& segment = segments[static_cast<size_t>(other - 1)];
+          const Spans spans = partial.spans.Union(segment.spans);
+          if (spans.Extent() > largest_extent_m) continue;
+          std::vector<int> members = partial.members;
+          members.insert(std::upper_bound(members.begin(), members.end(), other), other);
+          if (!seen.insert(members).second) continue;
+          next.push_back({members, spans});
+          if (static_cast<int>(all.size() + next.size()) >= options.max_regions) break;
+        }
+      }
+    }
+    all.insert(all.end(), next.begin(), next.end());
+    level.swap(next);
+    if (static_cast<int>(all.size()) >= options.max_regions) break;
+  }
+  std::vector<Proposal> proposals;
+  for (const Partial& partial : all) {
+    Proposal proposal;
+    proposal.segments = partial.members;
+    double weighted_depth = 0.0;
+    for (int label : partial.members) {
+      const DepthSegment& segment = segments[static_cast<size_t>(label - 1)];
+      proposal.box = proposal.pixels == 0 ? segment.box : (proposal.box | segment.box);
+      proposal.pixels += segment.pixels;
+      weighted_depth += segment.median_depth_m * segment.pixels;
+    }
+    proposal.depth_m = weighted_depth / std::max(1, proposal.pixels);
+    proposal.extent_m = partial.spans.Extent();
+    // The centre of the spans along the camera axes (directions 0..2).
+    for (int axis = 0; axis < 3; ++axis) {
+      proposal.centre_m[axis] = 0.5 * (partial.spans.low[static_cast<size_t>(axis)] + partial.spans.high[static_cast<size_t>(axis)]);
+    }
+    proposals.push_back(proposal);
+  }
+  return proposals;
+}
+
+}  // namespace
+
+std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<DetectRequest>& requests,
+                                     const SolverOptions& solver_options, const DetectOptions& options,
+                                     Executor* executor, DetectionReport* report) {
+  DetectionReport local_report;
+  DetectionReport& out = report ? *report : local_report;
+  out = DetectionReport();
+  const Stopwatch total_watch;
+  if (requests.empty()) G6D_THROW("DetectObjects: no objects requested");
+  for (size_t r = 0; r < requests.size(); ++r) {
+    if (requests[r].bank == nullptr) G6D_THROW("DetectObjects: request " << r << " has no template bank");
+    if (requests[r].count < 1) G6D_THROW("DetectObjects: request " << r << " (" << requests[r].bank->object_id << ") asks for " << requests[r].count << " instances (must be >= 1)");
+  }
+  const std::string bad = options.Check();
+  if (!bad.empty()) G6D_THROW(bad);
+  std::vector<Detection> detections;
+  if (frame.depth.empty() || frame.depth.type() != CV_32F || frame.rgb.type() != CV_8UC3 ||
+      frame.depth.size() != frame.rgb.size() || frame.depth.cols != frame.camera.width ||
+      frame.depth.rows != frame.camera.height) {
+    out.message = "bad frame: depth must be CV_32F and rgb CV_8UC3, both of the camera's size";
+    return detections;
+  }
+  double largest_diameter_m = 0.0;
+  for (const DetectRequest& request : requests) largest_diameter_m = std::max(largest_diameter_m, request.bank->diameter_m);
+
+  {
+    const ScopedTimer timer(&out.support_ms);
+    out.support_planes = FindSupport(frame, options, largest_diameter_m, &out.support);
+  }
+  {
+    const ScopedTimer timer(&out.segment_ms);
+    cv::Mat region = out.support == 0;
+    out.segmentation = SegmentByDepth(frame.camera, frame.depth, region, options.segments);
+  }
+  const std::vector<DepthSegment>& segments = out.segmentation.segments;
+  const double focal = std::min(frame.camera.fx, frame.camera.fy);
+  const double noise = options.segments.noise_sigmas * options.segments.sensor_noise_at_1m;
+  auto allowance_m = [&](double z) { return 2.0 * (noise * z * z + options.extent_margin_px * z / focal); };
+  {
+    const ScopedTimer timer(&out.propose_ms);
+    double largest_extent_m = 0.0;
+    double farthest = 0.0;
+    for (const DepthSegment& segment : segments) farthest = std::max(farthest, segment.median_depth_m);
+    largest_extent_m = largest_diameter_m + allowance_m(farthest);
+    out.proposals = FormRegions(out.segmentation, NeighbourSegments(out.segmentation.labels, options.neighbour_gap_px),
+                                largest_extent_m, options);
+  }
+
+  // Rank every (object, region) pair that fits.
+  std::vector<std::vector<int>> chosen(requests.size());
+  {
+    const ScopedTimer timer(&out.rank_ms);
+    std::vector<ChromaHistogram> region_colours(out.proposals.size());
+    std::vector<bool> region_colour_done(out.proposals.size(), false);
+    auto region_colour = [&](int index) -> const ChromaHistogram& {
+      ChromaHistogram& histogram = region_colours[static_cast<size_t>(index)];
+      if (region_colour_done[static_cast<size_t>(index)]) return histogram;
+      region_colour_done[static_cast<size_t>(index)] = true;
+      histogram.fill(0.0);
+      double total = 0.0;
+      const Proposal& proposal = out.proposals[static_cast<size_t>(index)];
+      for (int v = proposal.box.y; v < proposal.box.y + proposal.box.height; v += 2) {
+        const int* l = out.segmentation.labels.ptr<int>(v);
+        const cv::Vec3b* rgb = frame.rgb.ptr<cv::Vec3b>(v);
+        for (int u = proposal.box.x; u < proposal.box.x + proposal.box.width; u += 2) {
+          if (l[u] <= 0 || !std::binary_search(proposal.segments.begin(), proposal.segments.end(), l[u])) continue;
+          AddColour(rgb[u][0] / 255.0, rgb[u][1] / 255.0, rgb[u][2] / 255.0, &histogram, &total);
+        }
+      }
+      Normalize(total, &histogram);
+      return histogram;
+    };
+    for (size_t r = 0; r < requests.size(); ++r) {
+      const TemplateBank& bank = *requests[r].bank;
+      ChromaHistogram model_colour{};
+      double model_total = 0.0;
+      for (const Eigen::Vector3f& c : bank.appearance.colors) AddColour(c.x(), c.y(), c.z(), &model_colour, &model_total);
+      Normalize(model_total, &model_colour);
+      const bool has_colour = model_total > 0.0;
+      const bool has_near = requests[r].near_point_m.allFinite();
+      std::vector<CandidateTrial> trials;
+      for (size_t p = 0; p < out.proposals.size(); ++p) {
+        const Proposal& proposal = out.proposals[p];
+        const double d = bank.diameter_m;
+        if (proposal.extent_m > d + allowance_m(proposal.depth_m)) continue;
+        if (proposal.extent_m < options.min_extent_fraction * d) continue;
+        const double whole_px = focal * d / proposal.depth_m;
+        if (proposal.pixels < options.min_area_fraction * whole_px * whole_px * M_PI / 8.0) continue;
+        CandidateTrial trial;
+        trial.request = static_cast<int>(r);
+        trial.proposal = static_cast<int>(p);
+        trial.size_term = std::min(1.0, proposal.extent_m / d);
+        trial.colour_term = has_colour ? Bhattacharyya(model_colour, region_colour(static_cast<int>(p))) : 0.5;
+        trial.rank = (1.0 - options.colour_weight) * trial.size_term + options.colour_weight * trial.colour_term;
+        if (has_near && (proposal.centre_m - requests[r].near_point_m).norm() <= d) trial.rank += 1.0;
+        trials.push_back(trial);
+      }
+      std::stable_sort(trials.begin(), trials.end(),
+                       [](const CandidateTrial& a, const CandidateTrial& b) { return a.rank > b.rank; });
+      // The best ones, skipping a region mostly inside one already chosen.
+      const int wanted = requests[r].count + options.extra_candidates;
+      for (size_t t = 0; t < trials.size() && static_cast<int>(chosen[r].size()) < wanted; ++t) {
+        const Proposal& proposal = out.proposals[static_cast<size_t>(trials[t].proposal)];
+        bool inside = false;
+        for (int c : chosen[r]) {
+          const Proposal& other = out.proposals[static_cast<size_t>(trials[static_cast<size_t>(c)].proposal)];
+          inside = inside || 2 * SharedPixels(proposal, other, segments) > proposal.pixels;
+        }
+        if (inside) continue;
+        chosen[r].push_back(static_cast<int>(t));
+      }
+      for (int& c : chosen[r]) c += static_cast<int>(out.trials.size());  // indices into out.trials
+      out.trials.insert(out.trials.end(), trials.begin(), trials.end());
+    }
+  }
+
+  // Solve the chosen candidates.
+  SolverOptions solve_options = solver_options;
+  solve_options.mask_trust = MaskTrust::kDepth;
+  std::vector<Detection> solved;
+  {
+    const ScopedTimer timer(&out.solve_ms);
+    for (size_t r = 0; r < requests.size(); ++r) {
+      for (int t : chosen[r]) {
+        CandidateTrial& trial = out.trials[static_cast<size_t>(t)];
+        const Stopwatch watch;
+        Detection detection;
+        detection.request = static_cast<int>(r);
+        detection.object_id = requests[r].bank->object_id;
+        detection.proposal = trial.proposal;
+        detection.region = RegionMask(out.segmentation.labels, out.proposals[static_cast<size_t>(trial.proposal)]);
+        detection.result = EstimatePose(frame, {detection.object_id, detection.region}, *requests[r].bank, solve_options, executor);
+        ++out.solves;
+        trial.solved = true;
+        trial.success = detection.result.success;
+        trial.score = detection.result.score;
+        trial.ms = watch.ElapsedMs();
+        if (detection.result.success) solved.push_back(std::move(detection));
+      }
+    }
+  }
+
+  // Keep answers by S_A: a pixel belongs to at most one answer, each object's count holds.
+  {
+    const ScopedTimer timer(&out.select_ms);
+    std::stable_sort(solved.begin(), solved.end(),
+                     [](const Detection& a, const Detection& b) { return a.result.score < b.result.score; });
+    cv::Mat taken = cv::Mat::zeros(frame.depth.size(), CV_8U);
+    std::vector<int> answered(requests.size(), 0);
+    for (Detection& detection : solved) {
+      const cv::Mat& mask = detection.result.corrected_mask.empty() ? detection.region : detection.result.corrected_mask;
+      const int pixels = cv::countNonZero(mask);
+      const int overlap = pixels > 0 ? cv::countNonZero(mask & taken) : 0;
+      const bool keep = detection.result.score <= options.max_score &&
+                        answered[static_cast<size_t>(detection.request)] < requests[static_cast<size_t>(detection.request)].count &&
+                        pixels > 0 && overlap <= options.max_overlap * pixels;
+      if (!keep) {
+        ++out.suppressed;
+        continue;
+      }
+      ++answered[static_cast<size_t>(detection.request)];
+      taken |= mask;
+      detections.push_back(std::move(detection));
+    }
+  }
+  out.answers = static_cast<int>(detections.size());
+  out.success = true;
+  std::ostringstream message;
+  message << out.answers << " answers from " << out.solves << " solves of " << out.proposals.size() << " regions ("
+          << segments.size() << " segments, " << out.support_planes << " support planes)";
+  out.message = message.str();
+  out.total_ms = total_watch.ElapsedMs();
+  return detections;
+}
+
+}  // namespace g6d

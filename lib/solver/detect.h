@@ -1,0 +1,168 @@
+#pragma once
+/// @file detect.h
+/// DetectObjects: the known objects found in an RGB-D frame with no mask and no box, and no
+/// learned model (the BOP localization task: the ids of the objects present and how many of
+/// each are given, nothing else).
+///
+/// Proposals come from the depth alone, once per frame:
+///  1. the support surfaces (a table, the floor, a wall) are planes far larger than any of
+///     the objects looked for: RANSAC planes whose connected inliers span more than every
+///     object's diameter are removed;
+///  2. the rest splits into depth-connected segments (SegmentByDepth: the depth jumps where
+///     one surface ends), and neighbouring segments (a surface broken by a hole in the depth
+///     or by a self-occlusion edge) join into unions of up to `max_union_segments`;
+///  3. every segment or union whose 3D extent fits inside an object (at most its diameter,
+///     at least a fraction of it) is a candidate region for that object.
+/// Per object the candidates are ranked cheaply (how much of the object's size they show,
+/// how well their colours agree with the cache's appearance samples); the best ones are
+/// solved as the region solve of a mask read as evidence (EstimatePose, MaskTrust::kDepth),
+/// and the answers are kept by S_A with non-maximum suppression: a pixel belongs to at most
+/// one answer, an object's count is respected, and a poor S_A is no answer.
+
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "core/executor.h"
+#include "core/frame.h"
+#include "solver/pipeline.h"
+#include "solver/segments.h"
+#include "templates/template_bank.h"
+
+namespace g6d {
+
+/// One object to find.
+struct DetectRequest {
+  const TemplateBank* bank = nullptr;  ///< the object's templates (not owned)
+  int count = 1;                       ///< at most this many instances are answered (>= 1)
+  /// Where the object was last seen (camera frame, metres), e.g. a lost track's last pose:
+  /// candidates within the object's diameter of it are solved first. Unset = NaN.
+  Eigen::Vector3d near_point_m = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+};
+
+/// Options of DetectObjects().
+struct DetectOptions {
+  /// Depth segmentation (sensor noise, step between neighbours of one surface, fragments).
+  SegmentOptions segments = [] {
+    SegmentOptions segments;
+    segments.min_segment_pixels = 40;
+    return segments;
+  }();
+  /// Support planes: at most this many, found one after the other by RANSAC on a sample of
+  /// the frame's depth points.
+  int max_planes = 3;
+  int plane_iterations = 300;
+  int plane_samples = 4000;
+  /// A point lies on a plane within noise_sigmas · σ(z) (segments.sensor_noise_at_1m, σ
+  /// growing with z²) plus this: real tables and floors are not flat to the millimetre, and
+  /// the depth of a real sensor bends by a few millimetres across the image.
+  double plane_flatness_m = 0.006;
+  /// A plane is a support when its inliers hold at least this fraction of the sampled points
+  /// and a connected part of them spans more than `support_extent_factor` times the largest
+  /// diameter of the objects looked for (so that no face of an object is taken away); only
+  /// such large connected parts are removed.
+  double min_plane_fraction = 0.03;
+  double support_extent_factor = 1.5;
+  /// Segments whose pixel boxes lie within this many pixels of each other are neighbours.
+  int neighbour_gap_px = 6;
+  /// Unions of at most this many neighbouring segments are candidates too.
+  int max_union_segments = 3;
+  /// At most this many distinct regions (segments and unions) are formed.
+  int max_regions = 400;
+  /// A region is a candidate for an object when its extent (Spans::Extent, a lower bound on
+  /// its diameter) is at most the object's diameter plus the sensor noise and this many
+  /// pixels at its depth at each end, and at least `min_extent_fraction` of the diameter.
+  double extent_margin_px = 2.0;
+  double min_extent_fraction = 0.3;
+  /// ... and holds at least this fraction of the pixels the whole object would cover at the
+  /// region's depth (about (f · diameter / z)² · π / 8 for a compact object).
+  double min_area_fraction = 0.05;
+  /// Candidates solved per object: its count plus this many, best ranked first (a candidate
+  /// mostly inside one already chosen for solving is skipped).
+  int extra_candidates = 2;
+  /// Ranking: weight of the colour agreement against the size agreement (0 = size only).
+  /// The colour term is the Bhattacharyya coefficient of chromaticity histograms of the
+  /// region's pixels and the cache's appearance samples (neutral 0.5 for an uncoloured
+  /// model).
+  double colour_weight = 0.5;
+  /// An answer whose S_A is above this is no answer (confidence about 1% at the defaults).
+  double max_score = 0.35;
+  /// Non-maximum suppression: an answer whose corrected mask shares more than this fraction
+  /// of its pixels with the mask of a better answer (lower S_A) is dropped.
+  double max_overlap = 0.3;
+
+  /// Empty when valid, else names the bad field.
+  std::string Check() const;
+};
+
+/// One candidate region.
+struct Proposal {
+  std::vector<int> segments;  ///< labels (1-based) of DetectionReport::segmentation
+  cv::Rect box;               ///< pixel box
+  int pixels = 0;             ///< pixels with depth
+  double extent_m = 0.0;      ///< Spans::Extent of its points
+  double depth_m = 0.0;       ///< median depth (pixel-weighted over its segments)
+  Eigen::Vector3d centre_m = Eigen::Vector3d::Zero();  ///< centre of its spans' box, camera frame
+};
+
+/// One (object, candidate) pair that was ranked, and solved when it ranked high enough.
+struct CandidateTrial {
+  int request = -1;          ///< index into the requests
+  int proposal = -1;         ///< index into DetectionReport::proposals
+  double size_term = 0.0;    ///< extent / diameter, in [0, 1]
+  double colour_term = 0.5;  ///< chromaticity agreement in [0, 1] (0.5 = no colour model)
+  double rank = 0.0;         ///< the ranking score (higher first)
+  bool solved = false;
+  bool success = false;
+  double score = 2.0;        ///< S_A when solved
+  double ms = 0.0;           ///< solve time
+};
+
+/// One answer.
+struct Detection {
+  int request = -1;           ///< index into the requests
+  std::string object_id;
+  int proposal = -1;          ///< the candidate region it was solved on
+  cv::Mat region;             ///< CV_8U 0/255, frame size: that region (the mask it was solved with)
+  PoseResult result;          ///< EstimatePose's answer on the region (corrected_mask, S_A, ...)
+};
+
+/// What DetectObjects() saw and did.
+struct DetectionReport {
+  bool success = false;
+  std::string message = "not run";
+  int support_planes = 0;
+  cv::Mat support;                  ///< CV_8U 0/255, frame size: the removed support pixels
+  DepthSegmentation segmentation;   ///< the segments of the rest
+  std::vector<Proposal> proposals;  ///< every region formed
+  std::vector<CandidateTrial> trials;  ///< every ranked pair, by request then rank
+  int solves = 0;                   ///< EstimatePose calls
+  int answers = 0;                  ///< detections returned
+  int suppressed = 0;               ///< solved answers dropped by S_A, the overlap or the count
+  double support_ms = 0.0, segment_ms = 0.0, propose_ms = 0.0, rank_ms = 0.0, solve_ms = 0.0,
+         select_ms = 0.0, total_ms = 0.0;
+};
+
+/// Finds up to `count` instances of each requested object in `frame` (no mask): proposals
+/// by the depth, ranked per object, the best solved with `solver_options` (as a mask read as
+/// evidence: mask_trust is forced to kDepth), answers kept by S_A with non-maximum
+/// suppression (this file's comment). Answers are ordered by S_A, best first. Never throws
+/// for bad data (report->success false, no answers, the message says why); throws g6d::Error
+/// for bad arguments (no requests, a null bank, a count < 1, bad options). `report` may be
+/// null. Solves fan out over `executor` as EstimatePose's do.
+std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<DetectRequest>& requests,
+                                     const SolverOptions& solver_options, const DetectOptions& options,
+                                     Executor* executor, DetectionReport* report);
+
+/// A picture of what DetectObjects() saw, for a person (g6d-solve --overlay, the benchmark's
+/// --detect-pictures): `frame.rgb` with the support pixels darkened, every segment outlined
+/// thinly in a colour of its own, the regions that were solved outlined in white, and each
+/// answer's model contour and axes in green with its object id and S_A. `requests` are
+/// DetectObjects'. CV_8UC3, RGB, frame size.
+cv::Mat DrawDetectionPicture(const Frame& frame, const std::vector<DetectRequest>& requests,
+                             const DetectionReport& report, const std::vector<Detection>& detections);
+
+}  // namespace g6d
