@@ -207,6 +207,10 @@ int main(int argc, char** argv) {
   app.add_option("--detect-colour-weight", detect_options.colour_weight,
                  "--masks none: weight of the colour agreement in the ranking of candidate regions")
       ->capture_default_str();
+  app.add_option("--detect-accept-confidence", detect_options.accept_confidence,
+                 "--masks none: stop solving an object's candidates once it has its count of answers this confident "
+                 "that explain their regions (1 = solve them all)")
+      ->capture_default_str();
   std::string detect_pictures;
   app.add_option("--detect-pictures", detect_pictures,
                  "--masks none: write a picture of the support, segments, solved regions and answers per image "

@@ -136,10 +136,16 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
         if (trial.solved) ++tried;
         if (trial.success) ++succeeded;
       }
-      std::fprintf(stderr, "    %s: %d candidates, %d solved (%d with a pose)\n", requests[r].bank->object_id.c_str(),
+      std::fprintf(stderr, "    %s: %d candidates, %d solved (%d with a pose):", requests[r].bank->object_id.c_str(),
                    static_cast<int>(std::count_if(report.trials.begin(), report.trials.end(),
                                                   [&](const CandidateTrial& t) { return t.request == static_cast<int>(r); })),
                    tried, succeeded);
+      for (const CandidateTrial& trial : report.trials) {
+        if (trial.request != static_cast<int>(r) || !trial.solved) continue;
+        std::fprintf(stderr, " [region %d rank %.2f (size %.2f colour %.2f) S %.3f IoU %.2f %.0f ms]", trial.proposal, trial.rank,
+                     trial.size_term, trial.colour_term, trial.score, trial.region_iou, trial.ms);
+      }
+      std::fprintf(stderr, "\n");
     }
   }
   if (!args.out_csv.empty()) WriteBopCsv(args.out_csv, estimates);

@@ -34,6 +34,9 @@ std::string DetectOptions::Check() const {
   else if (!(min_area_fraction >= 0.0 && min_area_fraction < 1.0)) out << "DetectOptions.min_area_fraction must be in [0, 1) (got " << min_area_fraction << ")";
   else if (extra_candidates < 0) out << "DetectOptions.extra_candidates must be >= 0 (got " << extra_candidates << ")";
   else if (!(colour_weight >= 0.0 && colour_weight <= 1.0)) out << "DetectOptions.colour_weight must be in [0, 1] (got " << colour_weight << ")";
+  else if (!(accept_confidence >= 0.0 && accept_confidence <= 1.0)) out << "DetectOptions.accept_confidence must be in [0, 1] (got " << accept_confidence << ")";
+  else if (!(accept_region_iou >= 0.0 && accept_region_iou <= 1.0)) out << "DetectOptions.accept_region_iou must be in [0, 1] (got " << accept_region_iou << ")";
+  else if (fill_gap_px < 0) out << "DetectOptions.fill_gap_px must be >= 0 (got " << fill_gap_px << ")";
   else if (!(max_score > 0.0)) out << "DetectOptions.max_score must be > 0 (got " << max_score << ")";
   else if (!(max_overlap >= 0.0 && max_overlap <= 1.0)) out << "DetectOptions.max_overlap must be in [0, 1] (got " << max_overlap << ")";
   return out.str();
@@ -272,6 +275,28 @@ cv::Mat RegionMask(const cv::Mat& labels, const Proposal& proposal) {
   return mask;
 }
 
+// The region as a segmenter would draw it: its segments plus the unclaimed pixels (no
+// depth, or a depth fragment; not support, no other segment) within `gap_px` of them: the
+// dark rims at the object's edges and the holes in its depth.
+cv::Mat FilledRegionMask(const cv::Mat& labels, const cv::Mat& support, const Proposal& proposal, int gap_px) {
+  cv::Mat mask = RegionMask(labels, proposal);
+  if (gap_px <= 0) return mask;
+  cv::Mat grown;
+  cv::dilate(mask, grown, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * gap_px + 1, 2 * gap_px + 1)));
+  const cv::Rect box = (proposal.box + cv::Point(-gap_px, -gap_px) + cv::Size(2 * gap_px, 2 * gap_px)) &
+                       cv::Rect(0, 0, labels.cols, labels.rows);
+  for (int v = box.y; v < box.y + box.height; ++v) {
+    const int* l = labels.ptr<int>(v);
+    const uint8_t* s = support.ptr<uint8_t>(v);
+    const uint8_t* g = grown.ptr<uint8_t>(v);
+    uint8_t* m = mask.ptr<uint8_t>(v);
+    for (int u = box.x; u < box.x + box.width; ++u) {
+      if (g[u] && l[u] == 0 && !s[u]) m[u] = 255;
+    }
+  }
+  return mask;
+}
+
 // Pixels the two regions share (they share whole segments).
 int SharedPixels(const Proposal& a, const Proposal& b, const std::vector<DepthSegment>& segments) {
   int shared = 0;
@@ -471,21 +496,38 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
   {
     const ScopedTimer timer(&out.solve_ms);
     for (size_t r = 0; r < requests.size(); ++r) {
+      cv::Mat accepted = cv::Mat::zeros(frame.depth.size(), CV_8U);
+      int confident = 0;
       for (int t : chosen[r]) {
+        if (confident >= requests[r].count) break;  // enough sure answers: the rest are not solved
         CandidateTrial& trial = out.trials[static_cast<size_t>(t)];
         const Stopwatch watch;
         Detection detection;
         detection.request = static_cast<int>(r);
         detection.object_id = requests[r].bank->object_id;
         detection.proposal = trial.proposal;
-        detection.region = RegionMask(out.segmentation.labels, out.proposals[static_cast<size_t>(trial.proposal)]);
+        detection.region = FilledRegionMask(out.segmentation.labels, out.support,
+                                            out.proposals[static_cast<size_t>(trial.proposal)], options.fill_gap_px);
         detection.result = EstimatePose(frame, {detection.object_id, detection.region}, *requests[r].bank, solve_options, executor);
         ++out.solves;
         trial.solved = true;
         trial.success = detection.result.success;
         trial.score = detection.result.score;
         trial.ms = watch.ElapsedMs();
-        if (detection.result.success) solved.push_back(std::move(detection));
+        if (!detection.result.success) continue;
+        trial.region_iou = detection.result.corrected_mask.empty()
+                               ? 0.0
+                               : MaskIntersectionOverUnion(detection.result.corrected_mask, detection.region);
+        if (options.accept_confidence < 1.0 && detection.result.confidence >= options.accept_confidence &&
+            trial.region_iou >= options.accept_region_iou) {
+          const cv::Mat& mask = detection.result.corrected_mask;
+          const int pixels = cv::countNonZero(mask);
+          if (pixels > 0 && cv::countNonZero(mask & accepted) <= options.max_overlap * pixels) {
+            ++confident;
+            accepted |= mask;
+          }
+        }
+        solved.push_back(std::move(detection));
       }
     }
   }

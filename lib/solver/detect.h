@@ -88,6 +88,21 @@ struct DetectOptions {
   /// region's pixels and the cache's appearance samples (neutral 0.5 for an uncoloured
   /// model).
   double colour_weight = 0.5;
+  /// An object's candidates are solved in rank order until it has `count` answers (not
+  /// overlapping) whose confidence (SolverOptions' calibration of S_A) is at least
+  /// `accept_confidence` and that explain their region: the mask the answer implies
+  /// (PoseResult::corrected_mask) has an IoU of at least `accept_region_iou` with it. (A
+  /// region of two objects can hold a good pose of one; it does not end the search.) The
+  /// rest are not solved. 1 (the default) = always solve every chosen candidate: on the
+  /// real YCB-V clutter a region of the sugar box and the bottle's top held a mustard-bottle
+  /// pose with confidence 0.95 and region IoU 0.85, ranked above the bottle's own region
+  /// (bench/RESULTS.md, issue 23); the search must compare the candidates.
+  double accept_confidence = 1.0;
+  double accept_region_iou = 0.7;
+  /// The region solved is the candidate's segments plus the pixels without depth (or in
+  /// depth fragments) within this many pixels of them that no other segment or support
+  /// holds: a segmenter's mask covers the dark rims and holes of the object's depth too.
+  int fill_gap_px = 3;
   /// An answer whose S_A is above this is no answer (confidence about 1% at the defaults).
   double max_score = 0.35;
   /// Non-maximum suppression: an answer whose corrected mask shares more than this fraction
@@ -118,6 +133,7 @@ struct CandidateTrial {
   bool solved = false;
   bool success = false;
   double score = 2.0;        ///< S_A when solved
+  double region_iou = 0.0;   ///< IoU of the answer's corrected mask with the region solved
   double ms = 0.0;           ///< solve time
 };
 
