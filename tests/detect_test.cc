@@ -1,0 +1,265 @@
+// DetectObjects on synthetic tabletop scenes: textured objects standing on a tilted table
+// plane (depth of the table ray-cast, 1 mm noise), no masks given.
+#include "solver/detect.h"
+
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "core/error.h"
+#include "eval/metrics.h"
+#include "mesh/mesh.h"
+#include "render/gl_renderer.h"
+#include "synthetic_scene.h"
+#include "test_bank.h"
+
+namespace g6d {
+namespace {
+
+const Camera kCamera{572.4, 573.6, 325.3, 242.0, 640, 480};
+
+// The table: the plane through kTableCentre with unit normal kUp (towards the camera side:
+// the camera looks down at it at about 50 degrees).
+const Eigen::Vector3d kTableCentre(0.0, 0.06, 0.55);
+const Eigen::Vector3d kUp = Eigen::Vector3d(0.0, -1.0, -0.85).normalized();
+
+struct TestObject {
+  std::string id;
+  Mesh mesh;
+  Eigen::Vector3d size;
+  TemplateBank bank;
+};
+
+// A pose standing on the table: the object's z axis along kUp, turned by `yaw` about it,
+// its centre `along` metres across the table (x of the image) from kTableCentre.
+Eigen::Isometry3d OnTable(const TestObject& object, double along_m, double yaw_rad) {
+  const Eigen::Vector3d x_axis = (Eigen::Vector3d::UnitX() - kUp * kUp.x()).normalized();
+  Eigen::Matrix3d table_from_up;  // columns: x, y, z (= up) of the table frame
+  table_from_up.col(0) = x_axis;
+  table_from_up.col(1) = kUp.cross(x_axis);
+  table_from_up.col(2) = kUp;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = table_from_up * Eigen::AngleAxisd(yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  pose.translation() = kTableCentre + along_m * x_axis + kUp * (0.5 * object.size.z() + 0.0005);
+  return pose;
+}
+
+struct Scene {
+  Frame frame;
+  std::vector<Eigen::Isometry3d> poses;  // per placed object
+};
+
+// Renders the placed objects over the table (nearest surface wins), 1 mm depth noise.
+Scene RenderScene(const std::vector<const TestObject*>& objects, const std::vector<Eigen::Isometry3d>& poses,
+                  uint64_t seed) {
+  Scene scene;
+  scene.poses = poses;
+  scene.frame.camera = kCamera;
+  cv::Mat rgb(kCamera.height, kCamera.width, CV_8UC3);
+  cv::Mat depth = cv::Mat::zeros(kCamera.height, kCamera.width, CV_32F);
+  std::mt19937_64 rng(seed);
+  std::uniform_int_distribution<int> speckle(-12, 12);
+  const double offset = -kUp.dot(kTableCentre);
+  for (int v = 0; v < kCamera.height; ++v) {
+    for (int u = 0; u < kCamera.width; ++u) {
+      const Eigen::Vector3d ray = kCamera.Backproject(PixelCentre(u, v), 1.0);
+      const double t = -offset / kUp.dot(ray);
+      const Eigen::Vector3d p = t * ray;
+      // A 1.2 m table; beyond it nothing returns (depth 0).
+      if (t > 0.0 && (p - kTableCentre).norm() < 0.6) depth.at<float>(v, u) = static_cast<float>(t);
+      const int grey = 140 + speckle(rng);
+      rgb.at<cv::Vec3b>(v, u) = cv::Vec3b(grey, grey - 5, grey - 15);
+    }
+  }
+  for (size_t k = 0; k < objects.size(); ++k) {
+    GlRenderer renderer(objects[k]->mesh);
+    const GlImage image = renderer.Render(kCamera, poses[k]);
+    for (int v = 0; v < kCamera.height; ++v) {
+      for (int u = 0; u < kCamera.width; ++u) {
+        if (!image.mask.at<uint8_t>(v, u)) continue;
+        const float z = image.depth.at<float>(v, u);
+        float& scene_z = depth.at<float>(v, u);
+        if (scene_z > 0.0f && scene_z <= z) continue;
+        scene_z = z;
+        rgb.at<cv::Vec3b>(v, u) = image.rgb.at<cv::Vec3b>(v, u);
+      }
+    }
+  }
+  std::normal_distribution<float> noise(0.0f, 0.001f);
+  for (int v = 0; v < depth.rows; ++v) {
+    for (int u = 0; u < depth.cols; ++u) {
+      if (depth.at<float>(v, u) > 0.0f) depth.at<float>(v, u) += noise(rng);
+    }
+  }
+  scene.frame.rgb = rgb;
+  scene.frame.depth = depth;
+  return scene;
+}
+
+SolverOptions QuickSolver() {
+  SolverOptions options;
+  options.num_hypotheses = 8;
+  return options;
+}
+
+class DetectTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    objects_ = new std::vector<TestObject>();
+    ThreadPool pool(2);
+    TemplateBuildOptions templates;
+    templates.views.num_directions = 60;
+    templates.views.num_inplane = 3;
+    const struct {
+      const char* id;
+      double sx, sy, sz;
+      uint64_t seed;
+    } specs[] = {{"box", 0.10, 0.07, 0.05, 21}, {"bar", 0.18, 0.035, 0.03, 9}};
+    for (const auto& spec : specs) {
+      TestObject object;
+      object.id = spec.id;
+      object.size = Eigen::Vector3d(spec.sx, spec.sy, spec.sz);
+      object.mesh = test::MakeTexturedBox(spec.sx, spec.sy, spec.sz, spec.seed);
+      object.bank = test::SharedTestBank(std::string("identify-") + spec.id, object.mesh, spec.id, templates, &pool);
+      objects_->push_back(std::move(object));
+    }
+  }
+  static void TearDownTestSuite() { delete objects_; }
+
+  static const TestObject& Box() { return objects_->at(0); }
+  static const TestObject& Bar() { return objects_->at(1); }
+
+  static std::vector<TestObject>* objects_;
+};
+std::vector<TestObject>* DetectTest::objects_ = nullptr;
+
+double AddOf(const Detection& detection, const TestObject& object, const Eigen::Isometry3d& truth) {
+  return ComputeAdd(detection.result.cam_from_object, truth, object.mesh.vertices);
+}
+
+TEST_F(DetectTest, FindsEachObjectOnTheTableWithoutAMask) {
+  const Scene scene = RenderScene({&Box(), &Bar()}, {OnTable(Box(), -0.09, 0.4), OnTable(Bar(), 0.08, -0.7)}, 3);
+  ThreadPool pool(2);
+  DetectionReport report;
+  const std::vector<Detection> detections =
+      DetectObjects(scene.frame, {{&Box().bank, 1}, {&Bar().bank, 1}}, QuickSolver(), DetectOptions(), &pool, &report);
+  ASSERT_TRUE(report.success) << report.message;
+  EXPECT_EQ(report.support_planes, 1) << report.message;
+  ASSERT_EQ(detections.size(), 2u) << report.message;
+  for (const Detection& detection : detections) {
+    const bool is_box = detection.object_id == Box().id;
+    const TestObject& object = is_box ? Box() : Bar();
+    const Eigen::Isometry3d& truth = scene.poses[is_box ? 0 : 1];
+    const double add = AddOf(detection, object, truth);
+    EXPECT_LT(add, 0.1 * object.bank.diameter_m) << detection.object_id << ": ADD " << add * 1000 << " mm, S "
+                                                 << detection.result.score;
+    // The region it came from lies on the object: most of it inside the true silhouette's box.
+    ASSERT_GE(detection.proposal, 0);
+    EXPECT_FALSE(detection.region.empty());
+    EXPECT_GT(cv::countNonZero(detection.region), 500);
+  }
+  EXPECT_NE(detections[0].object_id, detections[1].object_id);
+  // Answers come best first and every stage reported its time.
+  EXPECT_LE(detections[0].result.score, detections[1].result.score);
+  EXPECT_GT(report.solves, 0);
+  EXPECT_GE(report.total_ms, report.solve_ms);
+
+  // The picture for a person: the support darkened, each answer's contour in green.
+  const cv::Mat picture =
+      DrawDetectionPicture(scene.frame, {{&Box().bank, 1}, {&Bar().bank, 1}}, report, detections);
+  ASSERT_EQ(picture.size(), scene.frame.rgb.size());
+  cv::Mat grey_picture, grey_frame;
+  cv::cvtColor(picture, grey_picture, cv::COLOR_RGB2GRAY);
+  cv::cvtColor(scene.frame.rgb, grey_frame, cv::COLOR_RGB2GRAY);
+  EXPECT_LT(cv::mean(grey_picture, report.support)[0], 0.5 * cv::mean(grey_frame, report.support)[0]);
+  cv::Mat green;
+  cv::inRange(picture, cv::Scalar(55, 250, 55), cv::Scalar(65, 255, 65), green);
+  EXPECT_GT(cv::countNonZero(green), 200);
+}
+
+TEST_F(DetectTest, AnEmptyTableGivesNoAnswerAndSolvesNothing) {
+  const Scene scene = RenderScene({}, {}, 5);
+  ThreadPool pool(2);
+  DetectionReport report;
+  const std::vector<Detection> detections =
+      DetectObjects(scene.frame, {{&Box().bank, 2}, {&Bar().bank, 1}}, QuickSolver(), DetectOptions(), &pool, &report);
+  EXPECT_TRUE(report.success) << report.message;
+  EXPECT_TRUE(detections.empty());
+  EXPECT_EQ(report.solves, 0) << report.message;
+  // The table is support: almost every pixel with depth was removed.
+  int with_depth = 0;
+  for (int v = 0; v < scene.frame.depth.rows; ++v) {
+    for (int u = 0; u < scene.frame.depth.cols; ++u) with_depth += scene.frame.depth.at<float>(v, u) > 0.0f;
+  }
+  EXPECT_GT(cv::countNonZero(report.support), 0.97 * with_depth);
+}
+
+TEST_F(DetectTest, TheCountLimitsTheAnswersOfAnObject) {
+  // Two boxes on the table, one asked for: one answer; two asked for: both, in different places.
+  const Scene scene = RenderScene({&Box(), &Box()}, {OnTable(Box(), -0.10, 0.3), OnTable(Box(), 0.10, -0.9)}, 7);
+  ThreadPool pool(2);
+  const std::vector<Detection> one =
+      DetectObjects(scene.frame, {{&Box().bank, 1}}, QuickSolver(), DetectOptions(), &pool, nullptr);
+  EXPECT_EQ(one.size(), 1u);
+  const std::vector<Detection> two =
+      DetectObjects(scene.frame, {{&Box().bank, 2}}, QuickSolver(), DetectOptions(), &pool, nullptr);
+  ASSERT_EQ(two.size(), 2u);
+  for (const Detection& detection : two) {
+    const double add = std::min(AddOf(detection, Box(), scene.poses[0]), AddOf(detection, Box(), scene.poses[1]));
+    EXPECT_LT(add, 0.1 * Box().bank.diameter_m) << "ADD " << add * 1000 << " mm";
+  }
+  const double apart = (two[0].result.cam_from_object.translation() - two[1].result.cam_from_object.translation()).norm();
+  EXPECT_GT(apart, 0.1);
+}
+
+TEST_F(DetectTest, ABadFrameIsReportedNotThrown) {
+  Frame frame;
+  frame.camera = kCamera;
+  frame.rgb = cv::Mat(10, 10, CV_8UC3, cv::Scalar(0, 0, 0));
+  frame.depth = cv::Mat(10, 10, CV_32F, cv::Scalar(0.5f));
+  ThreadPool pool(1);
+  DetectionReport report;
+  const std::vector<Detection> detections =
+      DetectObjects(frame, {{&Box().bank, 1}}, QuickSolver(), DetectOptions(), &pool, &report);
+  EXPECT_TRUE(detections.empty());
+  EXPECT_FALSE(report.success);
+  EXPECT_NE(report.message.find("camera's size"), std::string::npos) << report.message;
+}
+
+TEST_F(DetectTest, BadArgumentsThrowNamingTheProblem) {
+  const Scene scene = RenderScene({}, {}, 9);
+  ThreadPool pool(1);
+  auto message_of = [&](const std::vector<DetectRequest>& requests, const DetectOptions& options) -> std::string {
+    try {
+      DetectObjects(scene.frame, requests, QuickSolver(), options, &pool, nullptr);
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_NE(message_of({}, DetectOptions()).find("no objects"), std::string::npos);
+  EXPECT_NE(message_of({{nullptr, 1}}, DetectOptions()).find("no template bank"), std::string::npos);
+  EXPECT_NE(message_of({{&Box().bank, 0}}, DetectOptions()).find("asks for 0"), std::string::npos);
+  DetectOptions bad;
+  bad.max_overlap = 2.0;
+  EXPECT_NE(message_of({{&Box().bank, 1}}, bad).find("max_overlap"), std::string::npos);
+}
+
+TEST(DetectOptions, CheckNamesTheBadField) {
+  EXPECT_EQ(DetectOptions().Check(), "");
+  DetectOptions options;
+  options.extra_candidates = -1;
+  EXPECT_NE(options.Check().find("extra_candidates"), std::string::npos);
+  options = DetectOptions();
+  options.segments.min_segment_pixels = 0;
+  EXPECT_NE(options.Check().find("min_segment_pixels"), std::string::npos);
+  options = DetectOptions();
+  options.support_extent_factor = 0.5;
+  EXPECT_NE(options.Check().find("support_extent_factor"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace g6d
