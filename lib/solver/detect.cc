@@ -405,7 +405,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
   {
     const ScopedTimer timer(&out.segment_ms);
     cv::Mat region = out.support == 0;
-    out.segmentation = SegmentByDepth(frame.camera, frame.depth, region, options.segments);
+    out.segmentation = SegmentByDepthAndCreases(frame.camera, frame.depth, region, options.segments, &out.creases);
   }
   const std::vector<DepthSegment>& segments = out.segmentation.segments;
   const double focal = std::min(frame.camera.fx, frame.camera.fy);

@@ -8,8 +8,9 @@
 ///  1. the support surfaces (a table, the floor, a wall) are planes far larger than any of
 ///     the objects looked for: RANSAC planes whose connected inliers span more than every
 ///     object's diameter are removed;
-///  2. the rest splits into depth-connected segments (SegmentByDepth: the depth jumps where
-///     one surface ends), and neighbouring segments (a surface broken by a hole in the depth
+///  2. the rest splits into depth-connected segments (SegmentByDepthAndCreases: the depth
+///     jumps where one surface ends, and objects that touch meet in a concave crease), and
+///     neighbouring segments (a surface broken by a hole in the depth
 ///     or by a self-occlusion edge) join into unions of up to `max_union_segments`;
 ///  3. every segment or union whose 3D extent fits inside an object (at most its diameter,
 ///     at least a fraction of it) is a candidate region for that object.
@@ -152,7 +153,8 @@ struct DetectionReport {
   std::string message = "not run";
   int support_planes = 0;
   cv::Mat support;                  ///< CV_8U 0/255, frame size: the removed support pixels
-  DepthSegmentation segmentation;   ///< the segments of the rest
+  cv::Mat creases;                  ///< CV_8U 0/255: concave creases the segments were split at
+  DepthSegmentation segmentation;   ///< the segments of the rest (SegmentByDepthAndCreases)
   std::vector<Proposal> proposals;  ///< every region formed
   std::vector<CandidateTrial> trials;  ///< every ranked pair, by request then rank
   int solves = 0;                   ///< EstimatePose calls
@@ -174,7 +176,8 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
                                      Executor* executor, DetectionReport* report);
 
 /// A picture of what DetectObjects() saw, for a person (g6d-solve --overlay, the benchmark's
-/// --detect-pictures): `frame.rgb` with the support pixels darkened, every segment outlined
+/// --detect-pictures): `frame.rgb` with the support pixels darkened, the concave creases in
+/// magenta, every segment outlined
 /// thinly in a colour of its own, the regions that were solved outlined in white, and each
 /// answer's model contour and axes in green with its object id and S_A. `requests` are
 /// DetectObjects'. CV_8UC3, RGB, frame size.

@@ -14,6 +14,8 @@ cv::Mat DrawDetectionPicture(const Frame& frame, const std::vector<DetectRequest
     cv::Mat dark = picture * 0.35;
     dark.copyTo(picture, report.support);
   }
+  // Concave creases the segments were split at, in magenta.
+  if (!report.creases.empty()) picture.setTo(cv::Scalar(255, 0, 255), report.creases);
   // Segment outlines: a colour per label from a fixed hue walk.
   const cv::Mat& labels = report.segmentation.labels;
   for (size_t k = 0; k < report.segmentation.segments.size(); ++k) {

@@ -17,6 +17,9 @@ std::string SegmentOptions::Check() const {
   else if (!(noise_sigmas > 0.0 && noise_sigmas <= 10.0)) out << "SegmentOptions.noise_sigmas must be in (0, 10] (got " << noise_sigmas << ")";
   else if (!(max_incidence_deg >= 0.0 && max_incidence_deg < 89.0)) out << "SegmentOptions.max_incidence_deg must be in [0, 89) (got " << max_incidence_deg << ")";
   else if (min_segment_pixels < 1) out << "SegmentOptions.min_segment_pixels must be >= 1 (got " << min_segment_pixels << ")";
+  else if (!(crease_half_span_m >= 0.0 && crease_half_span_m < 1.0)) out << "SegmentOptions.crease_half_span_m must be in [0, 1) m (got " << crease_half_span_m << ")";
+  else if (crease_erode_px < 0) out << "SegmentOptions.crease_erode_px must be >= 0 (got " << crease_erode_px << ")";
+  else if (!(crease_min_depth_m >= 0.0)) out << "SegmentOptions.crease_min_depth_m must be >= 0 m (got " << crease_min_depth_m << ")";
   return out.str();
 }
 
@@ -87,6 +90,52 @@ class SurfaceStep {
   double noise_, slope_;
 };
 
+// Pixels, box, median depth and trimmed spans of segments 1..count of `labels` (CV_32S;
+// every labelled pixel has valid depth).
+std::vector<DepthSegment> SegmentStatistics(const Camera& camera, const cv::Mat& depth, const cv::Mat& labels,
+                                            int count) {
+  const size_t n = static_cast<size_t>(count);
+  std::vector<DepthSegment> segments(n);
+  std::vector<std::vector<float>> depths(n);
+  std::vector<std::vector<Eigen::Vector3d>> points(n);
+  std::vector<cv::Point> low(n, cv::Point(labels.cols, labels.rows));
+  std::vector<cv::Point> high(n, cv::Point(-1, -1));
+  for (int v = 0; v < labels.rows; ++v) {
+    const int* l = labels.ptr<int>(v);
+    const float* d = depth.ptr<float>(v);
+    for (int u = 0; u < labels.cols; ++u) {
+      if (l[u] <= 0) continue;
+      const size_t k = static_cast<size_t>(l[u] - 1);
+      depths[k].push_back(d[u]);
+      points[k].push_back(camera.Backproject(PixelCentre(u, v), d[u]));
+      low[k] = cv::Point(std::min(low[k].x, u), std::min(low[k].y, v));
+      high[k] = cv::Point(std::max(high[k].x, u), std::max(high[k].y, v));
+    }
+  }
+  for (size_t k = 0; k < n; ++k) {
+    DepthSegment& segment = segments[k];
+    segment.pixels = static_cast<int>(depths[k].size());
+    if (segment.pixels == 0) continue;
+    segment.box = cv::Rect(low[k], high[k] + cv::Point(1, 1));
+    const auto middle = depths[k].begin() + static_cast<std::ptrdiff_t>(depths[k].size() / 2);
+    std::nth_element(depths[k].begin(), middle, depths[k].end());
+    segment.median_depth_m = *middle;
+    // Spans between the 2% and 98% quantiles of the projections.
+    std::vector<double> projections(points[k].size());
+    const size_t trim = points[k].size() / 50;
+    for (int d = 0; d < kSpanDirections; ++d) {
+      const Eigen::Vector3d& direction = SpanDirections()[static_cast<size_t>(d)];
+      for (size_t i = 0; i < points[k].size(); ++i) projections[i] = direction.dot(points[k][i]);
+      std::nth_element(projections.begin(), projections.begin() + static_cast<std::ptrdiff_t>(trim), projections.end());
+      segment.spans.low[static_cast<size_t>(d)] = projections[trim];
+      const size_t top = projections.size() - 1 - trim;
+      std::nth_element(projections.begin(), projections.begin() + static_cast<std::ptrdiff_t>(top), projections.end());
+      segment.spans.high[static_cast<size_t>(d)] = projections[top];
+    }
+  }
+  return segments;
+}
+
 }  // namespace
 
 DepthSegmentation SegmentByDepth(const Camera& camera, const cv::Mat& depth, const cv::Mat& region,
@@ -141,45 +190,13 @@ DepthSegmentation SegmentByDepth(const Camera& camera, const cv::Mat& depth, con
                    [&](int a, int b) { return size[static_cast<size_t>(a)] > size[static_cast<size_t>(b)]; });
   std::vector<int> label_of_root(static_cast<size_t>(box.area()), 0);
   for (size_t k = 0; k < roots.size(); ++k) label_of_root[static_cast<size_t>(roots[k])] = static_cast<int>(k) + 1;
-  result.segments.resize(roots.size());
-  std::vector<std::vector<float>> depths(roots.size());
-  std::vector<std::vector<Eigen::Vector3d>> points(roots.size());
-  std::vector<cv::Point> low(roots.size(), cv::Point(box.x + box.width, box.y + box.height));
-  std::vector<cv::Point> high(roots.size(), cv::Point(-1, -1));
   for (int v = box.y; v < box.y + box.height; ++v) {
     int* labels = result.labels.ptr<int>(v);
     for (int u = box.x; u < box.x + box.width; ++u) {
-      if (!valid_at(u, v)) continue;
-      const int label = label_of_root[static_cast<size_t>(sets.Find(index(u, v)))];
-      if (label == 0) continue;
-      labels[u] = label;
-      const size_t k = static_cast<size_t>(label - 1);
-      depths[k].push_back(depth.at<float>(v, u));
-      points[k].push_back(camera.Backproject(PixelCentre(u, v), depth.at<float>(v, u)));
-      low[k] = cv::Point(std::min(low[k].x, u), std::min(low[k].y, v));
-      high[k] = cv::Point(std::max(high[k].x, u), std::max(high[k].y, v));
+      if (valid_at(u, v)) labels[u] = label_of_root[static_cast<size_t>(sets.Find(index(u, v)))];
     }
   }
-  for (size_t k = 0; k < roots.size(); ++k) {
-    DepthSegment& segment = result.segments[k];
-    segment.pixels = static_cast<int>(depths[k].size());
-    segment.box = cv::Rect(low[k], high[k] + cv::Point(1, 1));
-    const auto middle = depths[k].begin() + static_cast<std::ptrdiff_t>(depths[k].size() / 2);
-    std::nth_element(depths[k].begin(), middle, depths[k].end());
-    segment.median_depth_m = *middle;
-    // Spans between the 2% and 98% quantiles of the projections.
-    std::vector<double> projections(points[k].size());
-    const size_t trim = points[k].size() / 50;
-    for (int d = 0; d < kSpanDirections; ++d) {
-      const Eigen::Vector3d& direction = SpanDirections()[static_cast<size_t>(d)];
-      for (size_t i = 0; i < points[k].size(); ++i) projections[i] = direction.dot(points[k][i]);
-      std::nth_element(projections.begin(), projections.begin() + static_cast<std::ptrdiff_t>(trim), projections.end());
-      segment.spans.low[static_cast<size_t>(d)] = projections[trim];
-      const size_t top = projections.size() - 1 - trim;
-      std::nth_element(projections.begin(), projections.begin() + static_cast<std::ptrdiff_t>(top), projections.end());
-      segment.spans.high[static_cast<size_t>(d)] = projections[top];
-    }
-  }
+  result.segments = SegmentStatistics(camera, depth, result.labels, static_cast<int>(roots.size()));
   return result;
 }
 
@@ -292,6 +309,129 @@ cv::Mat GrowRegionByDepth(const Camera& camera, const cv::Mat& depth, const cv::
     }
     return fallback;
   }
+  return result;
+}
+
+cv::Mat MarkConcaveCreases(const Camera& camera, const cv::Mat& depth, const cv::Mat& region,
+                           const SegmentOptions& options) {
+  const std::string bad = options.Check();
+  if (!bad.empty()) G6D_THROW(bad);
+  if (depth.type() != CV_32F || region.type() != CV_8U || depth.size() != region.size()) {
+    G6D_THROW("MarkConcaveCreases: depth must be CV_32F and region CV_8U of one size");
+  }
+  cv::Mat creases = cv::Mat::zeros(depth.size(), CV_8U);
+  if (options.crease_half_span_m <= 0.0) return creases;
+  const double focal = std::min(camera.fx, camera.fy);
+  // The midpoint of a crease's span lies behind the chord between its ends by at least
+  // this: the noise of three depths (√1.5 σ for the difference of one and the mean of two)
+  // with the options' sigmas, and never less than the floor (a real sensor quantizes depth
+  // in steps of about a millimetre at 1 m).
+  const double noise = options.noise_sigmas * std::sqrt(1.5) * options.sensor_noise_at_1m;
+  auto usable = [&](int u, int v) {
+    if (u < 0 || v < 0 || u >= depth.cols || v >= depth.rows || !region.at<uint8_t>(v, u)) return false;
+    const float z = depth.at<float>(v, u);
+    return z > 0.0f && std::isfinite(z);
+  };
+  const int du[4] = {1, 0, 1, 1}, dv[4] = {0, 1, 1, -1};
+  for (int v = 0; v < depth.rows; ++v) {
+    for (int u = 0; u < depth.cols; ++u) {
+      if (!usable(u, v)) continue;
+      const double z = depth.at<float>(v, u);
+      const int k = std::max(2, static_cast<int>(std::lround(focal * options.crease_half_span_m / z)));
+      const double threshold = std::max(options.crease_min_depth_m, noise * z * z);
+      for (int d = 0; d < 4; ++d) {
+        // Both ends inside the region with depth. A depth jump on the way is no reason to
+        // stop: the far side of an occluding edge passes the test too, and its band of
+        // pixels goes back to the surface it continues (SegmentByDepthAndCreases' growth);
+        // where a convex object rests against another the junction is often such a jump
+        // on one side and a crease on the other.
+        double ends[2];
+        bool continuous = true;
+        for (int side = 0; side < 2 && continuous; ++side) {
+          const int su = side == 0 ? du[d] : -du[d], sv = side == 0 ? dv[d] : -dv[d];
+          double previous = z;
+          for (int step = 1; step <= k && continuous; ++step) {
+            const int uu = u + step * su, vv = v + step * sv;
+            if (!usable(uu, vv)) {
+              continuous = false;
+              break;
+            }
+            previous = depth.at<float>(vv, uu);
+          }
+          ends[side] = previous;
+        }
+        if (continuous && z - 0.5 * (ends[0] + ends[1]) > threshold) {
+          creases.at<uint8_t>(v, u) = 255;
+          break;
+        }
+      }
+    }
+  }
+  return creases;
+}
+
+DepthSegmentation SegmentByDepthAndCreases(const Camera& camera, const cv::Mat& depth, const cv::Mat& region,
+                                           const SegmentOptions& options, cv::Mat* creases_out) {
+  const cv::Mat creases = MarkConcaveCreases(camera, depth, region, options);
+  if (creases_out) *creases_out = creases;
+  cv::Mat inner = region.clone();
+  inner.setTo(0, creases);
+  // A crease found along most of a contact still leaves bridges where the test missed a
+  // few pixels: cutting the region back by crease_erode_px more closes gaps twice as wide
+  // (the pixels come back by the growth below).
+  if (options.crease_erode_px > 0) {
+    const int size = 2 * options.crease_erode_px + 1;
+    cv::erode(inner, inner, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(size, size)));
+  }
+  DepthSegmentation result = SegmentByDepth(camera, depth, inner, options);
+  // Crease pixels (and fragments) join the segment they continue, nearest first: a
+  // breadth-first growth from every labelled pixel over the region's valid depth.
+  const SurfaceStep max_step_m(camera, options);
+  std::vector<cv::Point> front;
+  for (int v = 0; v < depth.rows; ++v) {
+    const int* l = result.labels.ptr<int>(v);
+    for (int u = 0; u < depth.cols; ++u) {
+      if (l[u] > 0) front.push_back(cv::Point(u, v));
+    }
+  }
+  const int du[4] = {-1, 1, 0, 0}, dv[4] = {0, 0, -1, 1};
+  while (!front.empty()) {
+    std::vector<cv::Point> next;
+    for (const cv::Point& p : front) {
+      const int label = result.labels.at<int>(p);
+      const float z = depth.at<float>(p);
+      for (int k = 0; k < 4; ++k) {
+        const int u = p.x + du[k], v = p.y + dv[k];
+        if (u < 0 || v < 0 || u >= depth.cols || v >= depth.rows || result.labels.at<int>(v, u) != 0 ||
+            !region.at<uint8_t>(v, u)) {
+          continue;
+        }
+        const float zq = depth.at<float>(v, u);
+        if (!(zq > 0.0f) || !std::isfinite(zq) || std::abs(zq - z) > max_step_m(std::max(z, zq))) continue;
+        result.labels.at<int>(v, u) = label;
+        next.push_back(cv::Point(u, v));
+      }
+    }
+    front.swap(next);
+  }
+  result.segments = SegmentStatistics(camera, depth, result.labels, static_cast<int>(result.segments.size()));
+  // Largest first again (the growth changed the sizes).
+  std::vector<int> order(result.segments.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return result.segments[static_cast<size_t>(a)].pixels > result.segments[static_cast<size_t>(b)].pixels;
+  });
+  std::vector<int> new_label(order.size() + 1, 0);
+  std::vector<DepthSegment> sorted;
+  for (size_t k = 0; k < order.size(); ++k) {
+    new_label[static_cast<size_t>(order[k]) + 1] = static_cast<int>(k) + 1;
+    sorted.push_back(result.segments[static_cast<size_t>(order[k])]);
+  }
+  for (int v = 0; v < depth.rows; ++v) {
+    int* l = result.labels.ptr<int>(v);
+    for (int u = 0; u < depth.cols; ++u) l[u] = new_label[static_cast<size_t>(l[u])];
+  }
+  result.segments.swap(sorted);
   return result;
 }
 

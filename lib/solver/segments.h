@@ -33,6 +33,17 @@ struct SegmentOptions {
   /// Segments with fewer valid-depth pixels than this are fragments (flying pixels at depth
   /// edges, speckle): labelled 0, they belong to no segment.
   int min_segment_pixels = 20;
+  /// Concave creases (MarkConcaveCreases; SegmentByDepthAndCreases only): the depth at a
+  /// pixel is compared with the mean of the depths this far to either side (metres across
+  /// the surface, at least 2 pixels); 0 = no crease test.
+  double crease_half_span_m = 0.01;
+  /// A crease's midpoint lies behind that mean by more than the noise of the three depths
+  /// (noise_sigmas) and at least this, metres (real sensors quantize depth in steps of
+  /// about a millimetre at 1 m).
+  double crease_min_depth_m = 0.003;
+  /// SegmentByDepthAndCreases: the region less its creases is eroded by this many pixels
+  /// before it is segmented (thin bridges the crease test missed are cut); 0 = none.
+  int crease_erode_px = 2;
 
   /// Empty when valid, else names the bad field.
   std::string Check() const;
@@ -79,6 +90,26 @@ struct DepthSegmentation {
 /// Deterministic. Throws g6d::Error on bad options or mismatched sizes.
 DepthSegmentation SegmentByDepth(const Camera& camera, const cv::Mat& depth, const cv::Mat& region,
                                  const SegmentOptions& options);
+
+/// The pixels of `region` (CV_8U) with valid depth that lie in a concave crease: along one of
+/// four directions (rows, columns, both diagonals) the depth there is farther than the mean
+/// of the depths options.crease_half_span_m to either side (both in the region with valid
+/// depth), by more than their noise and options.crease_min_depth_m. Two convex objects that
+/// touch, or an object standing on another, meet in such a valley; the surface of one convex
+/// object never has one (its middle lies in front of the chord). The far side of an
+/// occluding edge is marked too (a band about the half span wide). CV_8U 0/255. Throws g6d::Error on bad options or
+/// mismatched sizes.
+cv::Mat MarkConcaveCreases(const Camera& camera, const cv::Mat& depth, const cv::Mat& region,
+                           const SegmentOptions& options);
+
+/// SegmentByDepth on `region` less its concave creases (MarkConcaveCreases), after which the
+/// crease pixels (and the fragments' pixels) join the segment they continue in depth,
+/// nearest first. Objects that touch at the same depth come out as separate segments; a
+/// concave object (a bowl, the inside of a mug) may come out as several, which unions of
+/// neighbouring segments put back together. `creases` (may be null) receives the crease
+/// pixels.
+DepthSegmentation SegmentByDepthAndCreases(const Camera& camera, const cv::Mat& depth, const cv::Mat& region,
+                                           const SegmentOptions& options, cv::Mat* creases);
 
 /// The region grown by the depth: `mask` (CV_8U, non-zero = in) and the pixels joined to it
 /// through 4-neighbours whose depths differ by no more than SegmentByDepth's step (the same
