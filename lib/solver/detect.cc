@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <map>
+#include <numeric>
 #include <random>
 #include <set>
 #include <sstream>
@@ -37,6 +38,7 @@ std::string DetectOptions::Check() const {
   else if (!(accept_confidence >= 0.0 && accept_confidence <= 1.0)) out << "DetectOptions.accept_confidence must be in [0, 1] (got " << accept_confidence << ")";
   else if (!(accept_region_iou >= 0.0 && accept_region_iou <= 1.0)) out << "DetectOptions.accept_region_iou must be in [0, 1] (got " << accept_region_iou << ")";
   else if (fill_gap_px < 0) out << "DetectOptions.fill_gap_px must be >= 0 (got " << fill_gap_px << ")";
+  else if (explain_away_passes < 0) out << "DetectOptions.explain_away_passes must be >= 0 (got " << explain_away_passes << ")";
   else if (!(max_score > 0.0)) out << "DetectOptions.max_score must be > 0 (got " << max_score << ")";
   else if (!(max_overlap >= 0.0 && max_overlap <= 1.0)) out << "DetectOptions.max_overlap must be in [0, 1] (got " << max_overlap << ")";
   return out.str();
@@ -372,6 +374,38 @@ std::vector<Proposal> FormRegions(const DepthSegmentation& segmentation, const s
   return proposals;
 }
 
+// The answers kept among `solved`: by S_A, best first, each at most max_score, each object's
+// count respected, and each sharing at most max_overlap of its pixels (corrected mask) with
+// the answers kept before it. *suppressed counts the others.
+std::vector<Detection> SelectAnswers(const Frame& frame, const std::vector<DetectRequest>& requests,
+                                     const DetectOptions& options, const std::vector<Detection>& solved,
+                                     int* suppressed) {
+  std::vector<size_t> order(solved.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](size_t a, size_t b) { return solved[a].result.score < solved[b].result.score; });
+  cv::Mat taken = cv::Mat::zeros(frame.depth.size(), CV_8U);
+  std::vector<int> answered(requests.size(), 0);
+  std::vector<Detection> kept;
+  *suppressed = 0;
+  for (size_t i : order) {
+    const Detection& detection = solved[i];
+    const cv::Mat& mask = detection.result.corrected_mask.empty() ? detection.region : detection.result.corrected_mask;
+    const int pixels = cv::countNonZero(mask);
+    const int overlap = pixels > 0 ? cv::countNonZero(mask & taken) : 0;
+    const size_t r = static_cast<size_t>(detection.request);
+    if (detection.result.score > options.max_score || answered[r] >= requests[r].count || pixels == 0 ||
+        overlap > options.max_overlap * pixels) {
+      ++*suppressed;
+      continue;
+    }
+    ++answered[r];
+    taken |= mask;
+    kept.push_back(detection);
+  }
+  return kept;
+}
+
 }  // namespace
 
 std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<DetectRequest>& requests,
@@ -402,164 +436,187 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
     const ScopedTimer timer(&out.support_ms);
     out.support_planes = FindSupport(frame, options, largest_diameter_m, &out.support);
   }
-  {
-    const ScopedTimer timer(&out.segment_ms);
-    cv::Mat region = out.support == 0;
-    out.segmentation = SegmentByDepthAndCreases(frame.camera, frame.depth, region, options.segments, &out.creases);
-  }
-  const std::vector<DepthSegment>& segments = out.segmentation.segments;
   const double focal = std::min(frame.camera.fx, frame.camera.fy);
   const double noise = options.segments.noise_sigmas * options.segments.sensor_noise_at_1m;
+  // How much longer than a diameter a region's extent may be: the noise at both ends and
+  // extent_margin_px at the region's depth.
   auto allowance_m = [&](double z) { return 2.0 * (noise * z * z + options.extent_margin_px * z / focal); };
-  {
-    const ScopedTimer timer(&out.propose_ms);
-    double largest_extent_m = 0.0;
-    double farthest = 0.0;
-    for (const DepthSegment& segment : segments) farthest = std::max(farthest, segment.median_depth_m);
-    largest_extent_m = largest_diameter_m + allowance_m(farthest);
-    out.proposals = FormRegions(out.segmentation, NeighbourSegments(out.segmentation.labels, options.neighbour_gap_px),
-                                largest_extent_m, options);
-  }
-
-  // Rank every (object, region) pair that fits.
-  std::vector<std::vector<int>> chosen(requests.size());
-  {
-    const ScopedTimer timer(&out.rank_ms);
-    std::vector<ChromaHistogram> region_colours(out.proposals.size());
-    std::vector<bool> region_colour_done(out.proposals.size(), false);
-    auto region_colour = [&](int index) -> const ChromaHistogram& {
-      ChromaHistogram& histogram = region_colours[static_cast<size_t>(index)];
-      if (region_colour_done[static_cast<size_t>(index)]) return histogram;
-      region_colour_done[static_cast<size_t>(index)] = true;
-      histogram.fill(0.0);
-      double total = 0.0;
-      const Proposal& proposal = out.proposals[static_cast<size_t>(index)];
-      for (int v = proposal.box.y; v < proposal.box.y + proposal.box.height; v += 2) {
-        const int* l = out.segmentation.labels.ptr<int>(v);
-        const cv::Vec3b* rgb = frame.rgb.ptr<cv::Vec3b>(v);
-        for (int u = proposal.box.x; u < proposal.box.x + proposal.box.width; u += 2) {
-          if (l[u] <= 0 || !std::binary_search(proposal.segments.begin(), proposal.segments.end(), l[u])) continue;
-          AddColour(rgb[u][0] / 255.0, rgb[u][1] / 255.0, rgb[u][2] / 255.0, &histogram, &total);
-        }
-      }
-      Normalize(total, &histogram);
-      return histogram;
-    };
-    for (size_t r = 0; r < requests.size(); ++r) {
-      const TemplateBank& bank = *requests[r].bank;
-      ChromaHistogram model_colour{};
-      double model_total = 0.0;
-      for (const Eigen::Vector3f& c : bank.appearance.colors) AddColour(c.x(), c.y(), c.z(), &model_colour, &model_total);
-      Normalize(model_total, &model_colour);
-      const bool has_colour = model_total > 0.0;
-      const bool has_near = requests[r].near_point_m.allFinite();
-      std::vector<CandidateTrial> trials;
-      for (size_t p = 0; p < out.proposals.size(); ++p) {
-        const Proposal& proposal = out.proposals[p];
-        const double d = bank.diameter_m;
-        if (proposal.extent_m > d + allowance_m(proposal.depth_m)) continue;
-        if (proposal.extent_m < options.min_extent_fraction * d) continue;
-        const double whole_px = focal * d / proposal.depth_m;
-        if (proposal.pixels < options.min_area_fraction * whole_px * whole_px * M_PI / 8.0) continue;
-        CandidateTrial trial;
-        trial.request = static_cast<int>(r);
-        trial.proposal = static_cast<int>(p);
-        trial.size_term = std::min(1.0, proposal.extent_m / d);
-        trial.colour_term = has_colour ? Bhattacharyya(model_colour, region_colour(static_cast<int>(p))) : 0.5;
-        trial.rank = (1.0 - options.colour_weight) * trial.size_term + options.colour_weight * trial.colour_term;
-        if (has_near && (proposal.centre_m - requests[r].near_point_m).norm() <= d) trial.rank += 1.0;
-        trials.push_back(trial);
-      }
-      std::stable_sort(trials.begin(), trials.end(),
-                       [](const CandidateTrial& a, const CandidateTrial& b) { return a.rank > b.rank; });
-      // The best ones, skipping a region mostly inside one already chosen.
-      const int wanted = requests[r].count + options.extra_candidates;
-      for (size_t t = 0; t < trials.size() && static_cast<int>(chosen[r].size()) < wanted; ++t) {
-        const Proposal& proposal = out.proposals[static_cast<size_t>(trials[t].proposal)];
-        bool inside = false;
-        for (int c : chosen[r]) {
-          const Proposal& other = out.proposals[static_cast<size_t>(trials[static_cast<size_t>(c)].proposal)];
-          inside = inside || 2 * SharedPixels(proposal, other, segments) > proposal.pixels;
-        }
-        if (inside) continue;
-        chosen[r].push_back(static_cast<int>(t));
-      }
-      for (int& c : chosen[r]) c += static_cast<int>(out.trials.size());  // indices into out.trials
-      out.trials.insert(out.trials.end(), trials.begin(), trials.end());
-    }
-  }
-
-  // Solve the chosen candidates.
   SolverOptions solve_options = solver_options;
   solve_options.mask_trust = MaskTrust::kDepth;
+  const cv::Mat first_region = out.support == 0;
   std::vector<Detection> solved;
-  {
-    const ScopedTimer timer(&out.solve_ms);
-    for (size_t r = 0; r < requests.size(); ++r) {
-      cv::Mat accepted = cv::Mat::zeros(frame.depth.size(), CV_8U);
-      int confident = 0;
-      for (int t : chosen[r]) {
-        if (confident >= requests[r].count) break;  // enough sure answers: the rest are not solved
-        CandidateTrial& trial = out.trials[static_cast<size_t>(t)];
-        const Stopwatch watch;
-        Detection detection;
-        detection.request = static_cast<int>(r);
-        detection.object_id = requests[r].bank->object_id;
-        detection.proposal = trial.proposal;
-        detection.region = FilledRegionMask(out.segmentation.labels, out.support,
-                                            out.proposals[static_cast<size_t>(trial.proposal)], options.fill_gap_px);
-        detection.result = EstimatePose(frame, {detection.object_id, detection.region}, *requests[r].bank, solve_options, executor);
-        ++out.solves;
-        trial.solved = true;
-        trial.success = detection.result.success;
-        trial.score = detection.result.score;
-        trial.ms = watch.ElapsedMs();
-        if (!detection.result.success) continue;
-        trial.region_iou = detection.result.corrected_mask.empty()
-                               ? 0.0
-                               : MaskIntersectionOverUnion(detection.result.corrected_mask, detection.region);
-        if (options.accept_confidence < 1.0 && detection.result.confidence >= options.accept_confidence &&
-            trial.region_iou >= options.accept_region_iou) {
-          const cv::Mat& mask = detection.result.corrected_mask;
-          const int pixels = cv::countNonZero(mask);
-          if (pixels > 0 && cv::countNonZero(mask & accepted) <= options.max_overlap * pixels) {
-            ++confident;
-            accepted |= mask;
+  std::vector<int> wanted(requests.size());
+  for (size_t r = 0; r < requests.size(); ++r) wanted[r] = requests[r].count;
+  for (int pass = 0; pass <= options.explain_away_passes; ++pass) {
+    cv::Mat region = first_region.clone();
+    if (pass > 0) {
+      // Explaining away: the pixels of the answers kept so far (their corrected masks,
+      // grown by the fill gap) are no longer anyone's, and the rest is split again: a
+      // region that held a found object and a touching one now holds the other alone.
+      cv::Mat claimed = cv::Mat::zeros(frame.depth.size(), CV_8U);
+      for (const Detection& detection : detections) {
+        claimed |= detection.result.corrected_mask.empty() ? detection.region : detection.result.corrected_mask;
+      }
+      if (options.fill_gap_px > 0) {
+        const int size = 2 * options.fill_gap_px + 1;
+        cv::dilate(claimed, claimed, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(size, size)));
+      }
+      region.setTo(0, claimed);
+      ++out.explain_away_passes;
+    }
+    DetectionReport::Pass& step = out.passes.emplace_back();
+    {
+      const ScopedTimer timer(&out.segment_ms);
+      step.segmentation = SegmentByDepthAndCreases(frame.camera, frame.depth, region, options.segments,
+                                                   pass == 0 ? &out.creases : nullptr);
+    }
+    const DepthSegmentation& segmentation = step.segmentation;
+    const size_t first_proposal = out.proposals.size();
+    {
+      const ScopedTimer timer(&out.propose_ms);
+      double farthest = 0.0;
+      for (const DepthSegment& segment : segmentation.segments) farthest = std::max(farthest, segment.median_depth_m);
+      const double largest_extent_m = largest_diameter_m + allowance_m(farthest);
+      std::vector<Proposal> proposals = FormRegions(
+          segmentation, NeighbourSegments(segmentation.labels, options.neighbour_gap_px), largest_extent_m, options);
+      for (Proposal& proposal : proposals) proposal.pass = pass;
+      out.proposals.insert(out.proposals.end(), proposals.begin(), proposals.end());
+    }
+    step.proposals = static_cast<int>(out.proposals.size() - first_proposal);
+
+    // Rank every (object, region) pair that fits, for the objects still wanted.
+    std::vector<std::vector<int>> chosen(requests.size());
+    {
+      const ScopedTimer timer(&out.rank_ms);
+      std::map<size_t, ChromaHistogram> region_colours;
+      auto region_colour = [&](size_t index) -> const ChromaHistogram& {
+        auto found = region_colours.find(index);
+        if (found != region_colours.end()) return found->second;
+        ChromaHistogram& histogram = region_colours[index];
+        histogram.fill(0.0);
+        double total = 0.0;
+        const Proposal& proposal = out.proposals[index];
+        for (int v = proposal.box.y; v < proposal.box.y + proposal.box.height; v += 2) {
+          const int* l = segmentation.labels.ptr<int>(v);
+          const cv::Vec3b* rgb = frame.rgb.ptr<cv::Vec3b>(v);
+          for (int u = proposal.box.x; u < proposal.box.x + proposal.box.width; u += 2) {
+            if (l[u] <= 0 || !std::binary_search(proposal.segments.begin(), proposal.segments.end(), l[u])) continue;
+            AddColour(rgb[u][0] / 255.0, rgb[u][1] / 255.0, rgb[u][2] / 255.0, &histogram, &total);
           }
         }
-        solved.push_back(std::move(detection));
+        Normalize(total, &histogram);
+        return histogram;
+      };
+      for (size_t r = 0; r < requests.size(); ++r) {
+        if (wanted[r] <= 0) continue;
+        const TemplateBank& bank = *requests[r].bank;
+        ChromaHistogram model_colour{};
+        double model_total = 0.0;
+        for (const Eigen::Vector3f& c : bank.appearance.colors) AddColour(c.x(), c.y(), c.z(), &model_colour, &model_total);
+        Normalize(model_total, &model_colour);
+        const bool has_colour = model_total > 0.0;
+        const bool has_near = requests[r].near_point_m.allFinite();
+        std::vector<CandidateTrial> trials;
+        for (size_t p = first_proposal; p < out.proposals.size(); ++p) {
+          const Proposal& proposal = out.proposals[p];
+          const double d = bank.diameter_m;
+          if (proposal.extent_m > d + allowance_m(proposal.depth_m)) continue;
+          if (proposal.extent_m < options.min_extent_fraction * d) continue;
+          const double whole_px = focal * d / proposal.depth_m;
+          if (proposal.pixels < options.min_area_fraction * whole_px * whole_px * M_PI / 8.0) continue;
+          CandidateTrial trial;
+          trial.request = static_cast<int>(r);
+          trial.proposal = static_cast<int>(p);
+          trial.pass = pass;
+          trial.size_term = std::min(1.0, proposal.extent_m / d);
+          trial.colour_term = has_colour ? Bhattacharyya(model_colour, region_colour(p)) : 0.5;
+          trial.rank = (1.0 - options.colour_weight) * trial.size_term + options.colour_weight * trial.colour_term;
+          if (has_near && (proposal.centre_m - requests[r].near_point_m).norm() <= d) trial.rank += 1.0;
+          trials.push_back(trial);
+        }
+        std::stable_sort(trials.begin(), trials.end(),
+                         [](const CandidateTrial& a, const CandidateTrial& b) { return a.rank > b.rank; });
+        // The best ones, skipping a region mostly inside one already chosen.
+        const int limit = wanted[r] + options.extra_candidates;
+        for (size_t t = 0; t < trials.size() && static_cast<int>(chosen[r].size()) < limit; ++t) {
+          const Proposal& proposal = out.proposals[static_cast<size_t>(trials[t].proposal)];
+          bool inside = false;
+          for (int c : chosen[r]) {
+            const Proposal& other = out.proposals[static_cast<size_t>(trials[static_cast<size_t>(c)].proposal)];
+            inside = inside || 2 * SharedPixels(proposal, other, segmentation.segments) > proposal.pixels;
+          }
+          if (inside) continue;
+          chosen[r].push_back(static_cast<int>(t));
+        }
+        for (int& c : chosen[r]) c += static_cast<int>(out.trials.size());  // indices into out.trials
+        out.trials.insert(out.trials.end(), trials.begin(), trials.end());
       }
     }
-  }
 
-  // Keep answers by S_A: a pixel belongs to at most one answer, each object's count holds.
-  {
-    const ScopedTimer timer(&out.select_ms);
-    std::stable_sort(solved.begin(), solved.end(),
-                     [](const Detection& a, const Detection& b) { return a.result.score < b.result.score; });
-    cv::Mat taken = cv::Mat::zeros(frame.depth.size(), CV_8U);
-    std::vector<int> answered(requests.size(), 0);
-    for (Detection& detection : solved) {
-      const cv::Mat& mask = detection.result.corrected_mask.empty() ? detection.region : detection.result.corrected_mask;
-      const int pixels = cv::countNonZero(mask);
-      const int overlap = pixels > 0 ? cv::countNonZero(mask & taken) : 0;
-      const bool keep = detection.result.score <= options.max_score &&
-                        answered[static_cast<size_t>(detection.request)] < requests[static_cast<size_t>(detection.request)].count &&
-                        pixels > 0 && overlap <= options.max_overlap * pixels;
-      if (!keep) {
-        ++out.suppressed;
-        continue;
+    // Solve the chosen candidates.
+    {
+      const ScopedTimer timer(&out.solve_ms);
+      for (size_t r = 0; r < requests.size(); ++r) {
+        cv::Mat accepted = cv::Mat::zeros(frame.depth.size(), CV_8U);
+        int confident = 0;
+        for (int t : chosen[r]) {
+          if (confident >= wanted[r]) break;  // enough sure answers: the rest are not solved
+          CandidateTrial& trial = out.trials[static_cast<size_t>(t)];
+          const Stopwatch watch;
+          Detection detection;
+          detection.request = static_cast<int>(r);
+          detection.object_id = requests[r].bank->object_id;
+          detection.proposal = trial.proposal;
+          detection.region = FilledRegionMask(segmentation.labels, out.support,
+                                              out.proposals[static_cast<size_t>(trial.proposal)], options.fill_gap_px);
+          detection.result =
+              EstimatePose(frame, {detection.object_id, detection.region}, *requests[r].bank, solve_options, executor);
+          ++out.solves;
+          ++step.solves;
+          trial.solved = true;
+          trial.success = detection.result.success;
+          trial.score = detection.result.score;
+          trial.ms = watch.ElapsedMs();
+          if (!detection.result.success) continue;
+          trial.region_iou = detection.result.corrected_mask.empty()
+                                 ? 0.0
+                                 : MaskIntersectionOverUnion(detection.result.corrected_mask, detection.region);
+          if (options.accept_confidence < 1.0 && detection.result.confidence >= options.accept_confidence &&
+              trial.region_iou >= options.accept_region_iou) {
+            const cv::Mat& mask = detection.result.corrected_mask;
+            const int pixels = cv::countNonZero(mask);
+            if (pixels > 0 && cv::countNonZero(mask & accepted) <= options.max_overlap * pixels) {
+              ++confident;
+              accepted |= mask;
+            }
+          }
+          solved.push_back(std::move(detection));
+        }
       }
-      ++answered[static_cast<size_t>(detection.request)];
-      taken |= mask;
-      detections.push_back(std::move(detection));
     }
+
+    // Keep answers by S_A over every pass so far: a pixel belongs to at most one answer,
+    // each object's count holds.
+    {
+      const ScopedTimer timer(&out.select_ms);
+      detections = SelectAnswers(frame, requests, options, solved, &out.suppressed);
+    }
+    bool missing = false;
+    for (size_t r = 0; r < requests.size(); ++r) {
+      int answered = 0;
+      for (const Detection& detection : detections) answered += detection.request == static_cast<int>(r);
+      wanted[r] = requests[r].count - answered;
+      missing = missing || wanted[r] > 0;
+    }
+    if (!missing || detections.empty()) break;  // all found, or nothing to explain away
   }
+  out.segmentation = out.passes.front().segmentation;
   out.answers = static_cast<int>(detections.size());
   out.success = true;
   std::ostringstream message;
   message << out.answers << " answers from " << out.solves << " solves of " << out.proposals.size() << " regions ("
-          << segments.size() << " segments, " << out.support_planes << " support planes)";
+          << out.segmentation.segments.size() << " segments, " << out.support_planes << " support planes, "
+          << out.explain_away_passes << " explaining-away passes)";
   out.message = message.str();
   out.total_ms = total_watch.ElapsedMs();
   return detections;

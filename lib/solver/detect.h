@@ -104,6 +104,12 @@ struct DetectOptions {
   /// depth fragments) within this many pixels of them that no other segment or support
   /// holds: a segmenter's mask covers the dark rims and holes of the object's depth too.
   int fill_gap_px = 3;
+  /// Explaining away: when an object still lacks answers after a pass, the pixels of the
+  /// answers kept so far are taken out and the rest is proposed, ranked and solved again for
+  /// the objects still wanted, at most this many times (0 = one pass). Two objects that
+  /// touch without a crease between them form one region too large for either; once the one
+  /// found elsewhere (or in a region of its own) is taken out, the other stands alone.
+  int explain_away_passes = 1;
   /// An answer whose S_A is above this is no answer (confidence about 1% at the defaults).
   double max_score = 0.35;
   /// Non-maximum suppression: an answer whose corrected mask shares more than this fraction
@@ -122,12 +128,14 @@ struct Proposal {
   double extent_m = 0.0;      ///< Spans::Extent of its points
   double depth_m = 0.0;       ///< median depth (pixel-weighted over its segments)
   Eigen::Vector3d centre_m = Eigen::Vector3d::Zero();  ///< centre of its spans' box, camera frame
+  int pass = 0;               ///< the pass whose segmentation its labels refer to (DetectionReport::passes)
 };
 
 /// One (object, candidate) pair that was ranked, and solved when it ranked high enough.
 struct CandidateTrial {
   int request = -1;          ///< index into the requests
   int proposal = -1;         ///< index into DetectionReport::proposals
+  int pass = 0;              ///< the pass it was ranked in
   double size_term = 0.0;    ///< extent / diameter, in [0, 1]
   double colour_term = 0.5;  ///< chromaticity agreement in [0, 1] (0.5 = no colour model)
   double rank = 0.0;         ///< the ranking score (higher first)
@@ -154,8 +162,17 @@ struct DetectionReport {
   int support_planes = 0;
   cv::Mat support;                  ///< CV_8U 0/255, frame size: the removed support pixels
   cv::Mat creases;                  ///< CV_8U 0/255: concave creases the segments were split at
-  DepthSegmentation segmentation;   ///< the segments of the rest (SegmentByDepthAndCreases)
-  std::vector<Proposal> proposals;  ///< every region formed
+  DepthSegmentation segmentation;   ///< the first pass's segments of the rest (SegmentByDepthAndCreases)
+  /// One pass of proposals and solves: the first over everything but the support, each
+  /// further one (explaining away) over what the answers kept so far left.
+  struct Pass {
+    DepthSegmentation segmentation;
+    int proposals = 0;  ///< regions formed in this pass
+    int solves = 0;
+  };
+  std::vector<Pass> passes;
+  int explain_away_passes = 0;      ///< passes after the first that ran
+  std::vector<Proposal> proposals;  ///< every region formed, all passes
   std::vector<CandidateTrial> trials;  ///< every ranked pair, by request then rank
   int solves = 0;                   ///< EstimatePose calls
   int answers = 0;                  ///< detections returned

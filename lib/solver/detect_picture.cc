@@ -30,8 +30,11 @@ cv::Mat DrawDetectionPicture(const Frame& frame, const std::vector<DetectRequest
   for (const CandidateTrial& trial : report.trials) {
     if (!trial.solved) continue;
     const Proposal& proposal = report.proposals[static_cast<size_t>(trial.proposal)];
+    const cv::Mat& pass_labels = static_cast<size_t>(proposal.pass) < report.passes.size()
+                                     ? report.passes[static_cast<size_t>(proposal.pass)].segmentation.labels
+                                     : labels;
     cv::Mat mask = cv::Mat::zeros(labels.size(), CV_8U);
-    for (int label : proposal.segments) mask |= labels == label;
+    for (int label : proposal.segments) mask |= pass_labels == label;
     DrawMaskOutline(mask, cv::Scalar(255, 255, 255), 1, &picture);
   }
   OverlayStyle style;
