@@ -43,6 +43,57 @@ TEST(SegmentByDepth, ASteepPlaneIsOneSegmentAndASmallStepIsNoEdge) {
   EXPECT_EQ(segmentation.segments[0].pixels, kWidth * kHeight);
 }
 
+// Depth of a fold along the column u = kWidth / 2: two planes tilted towards (valley) or
+// away from (ridge) the camera by `slope` metres of depth per metre across, meeting there.
+cv::Mat Fold(double slope, bool valley) {
+  cv::Mat depth(kHeight, kWidth, CV_32F);
+  for (int v = 0; v < kHeight; ++v) {
+    for (int u = 0; u < kWidth; ++u) {
+      // Metres across at 0.6 m: (u - centre) * z / f, depth change slope times that.
+      const double across = std::abs(u + 0.5 - kWidth / 2.0) * 0.6 / kCamera.fx;
+      depth.at<float>(v, u) = static_cast<float>(valley ? 0.6 - slope * across : 0.6 + slope * across);
+    }
+  }
+  return depth;
+}
+
+TEST(MarkConcaveCreases, AValleyIsACreaseAndARidgeIsNot) {
+  // Two faces at 45 degrees to the view meeting in a valley: two convex objects touching.
+  const cv::Mat valley = MarkConcaveCreases(kCamera, Fold(1.0, true), Everything(), SegmentOptions());
+  EXPECT_EQ(valley.at<uint8_t>(75, kWidth / 2), 255);
+  EXPECT_EQ(valley.at<uint8_t>(75, kWidth / 2 - 1), 255);
+  EXPECT_EQ(valley.at<uint8_t>(75, 20), 0);  // far from the fold: a plane
+  // The same fold the other way (a box's edge seen from outside): no crease anywhere.
+  const cv::Mat ridge = MarkConcaveCreases(kCamera, Fold(1.0, false), Everything(), SegmentOptions());
+  EXPECT_EQ(cv::countNonZero(ridge), 0);
+  // A flat plane with 1 mm noise-like ripples: no crease.
+  cv::Mat ripples = Filled(0.6f);
+  for (int u = 0; u < kWidth; u += 2) ripples.col(u) += 0.001f;
+  EXPECT_EQ(cv::countNonZero(MarkConcaveCreases(kCamera, ripples, Everything(), SegmentOptions())), 0);
+  // Off: nothing marked.
+  SegmentOptions off;
+  off.crease_half_span_m = 0.0;
+  EXPECT_EQ(cv::countNonZero(MarkConcaveCreases(kCamera, Fold(1.0, true), Everything(), off)), 0);
+}
+
+TEST(SegmentByDepthAndCreases, TouchingFacesComeApartAndKeepEveryPixel) {
+  const cv::Mat depth = Fold(1.0, true);
+  // SegmentByDepth alone: the fold is continuous in depth, one segment.
+  EXPECT_EQ(SegmentByDepth(kCamera, depth, Everything(), SegmentOptions()).segments.size(), 1u);
+  cv::Mat creases;
+  const DepthSegmentation split = SegmentByDepthAndCreases(kCamera, depth, Everything(), SegmentOptions(), &creases);
+  ASSERT_EQ(split.segments.size(), 2u);
+  EXPECT_GT(cv::countNonZero(creases), 0);
+  // Every pixel is back in a segment, each face in its own, largest first.
+  EXPECT_EQ(split.segments[0].pixels + split.segments[1].pixels, kWidth * kHeight);
+  EXPECT_GE(split.segments[0].pixels, split.segments[1].pixels);
+  EXPECT_NE(split.labels.at<int>(75, 10), split.labels.at<int>(75, kWidth - 10));
+  EXPECT_EQ(split.labels.at<int>(75, 10), split.labels.at<int>(140, 60));
+  // A ridge stays whole.
+  EXPECT_EQ(SegmentByDepthAndCreases(kCamera, Fold(1.0, false), Everything(), SegmentOptions(), nullptr).segments.size(),
+            1u);
+}
+
 TEST(SegmentByDepth, OnlyTheRegionWithDepthIsSegmentedAndFragmentsAreLeftOut) {
   cv::Mat depth = Filled(0.9f);
   depth(cv::Rect(50, 50, 20, 20)).setTo(0.0f);        // a hole

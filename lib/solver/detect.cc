@@ -553,41 +553,66 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
       }
     }
 
-    // Solve the chosen candidates.
+    // Solve the chosen candidates: all at once over the executor (each solve fans out its
+    // own hypotheses too, so the threads stay busy through a solve's serial stages), or,
+    // with early acceptance, one after the other in rank order.
     {
       const ScopedTimer timer(&out.solve_ms);
+      struct Job {
+        size_t request;
+        int trial;
+      };
+      std::vector<Job> jobs;
       for (size_t r = 0; r < requests.size(); ++r) {
-        cv::Mat accepted = cv::Mat::zeros(frame.depth.size(), CV_8U);
-        int confident = 0;
-        for (int t : chosen[r]) {
-          if (confident >= wanted[r]) break;  // enough sure answers: the rest are not solved
-          CandidateTrial& trial = out.trials[static_cast<size_t>(t)];
-          const Stopwatch watch;
-          Detection detection;
-          detection.request = static_cast<int>(r);
-          detection.object_id = requests[r].bank->object_id;
-          detection.proposal = trial.proposal;
-          detection.region = FilledRegionMask(segmentation.labels, out.support,
-                                              out.proposals[static_cast<size_t>(trial.proposal)], options.fill_gap_px);
-          detection.result =
-              EstimatePose(frame, {detection.object_id, detection.region}, *requests[r].bank, solve_options, executor);
+        for (int t : chosen[r]) jobs.push_back({r, t});
+      }
+      auto solve = [&](const Job& job) {
+        CandidateTrial& trial = out.trials[static_cast<size_t>(job.trial)];
+        const Stopwatch watch;
+        Detection detection;
+        detection.request = static_cast<int>(job.request);
+        detection.object_id = requests[job.request].bank->object_id;
+        detection.proposal = trial.proposal;
+        detection.region = FilledRegionMask(segmentation.labels, out.support,
+                                            out.proposals[static_cast<size_t>(trial.proposal)], options.fill_gap_px);
+        detection.result = EstimatePose(frame, {detection.object_id, detection.region}, *requests[job.request].bank,
+                                        solve_options, executor);
+        trial.solved = true;
+        trial.success = detection.result.success;
+        trial.score = detection.result.score;
+        trial.ms = watch.ElapsedMs();
+        if (detection.result.success && !detection.result.corrected_mask.empty()) {
+          trial.region_iou = MaskIntersectionOverUnion(detection.result.corrected_mask, detection.region);
+        }
+        return detection;
+      };
+      if (options.accept_confidence >= 1.0) {
+        std::vector<Detection> results(jobs.size());
+        executor->ParallelFor(static_cast<int>(jobs.size()),
+                              [&](int i) { results[static_cast<size_t>(i)] = solve(jobs[static_cast<size_t>(i)]); });
+        for (Detection& detection : results) {
+          if (detection.result.success) solved.push_back(std::move(detection));
+        }
+        out.solves += static_cast<int>(jobs.size());
+        step.solves += static_cast<int>(jobs.size());
+      } else {
+        std::vector<cv::Mat> accepted(requests.size());
+        std::vector<int> confident(requests.size(), 0);
+        for (const Job& job : jobs) {
+          if (confident[job.request] >= wanted[job.request]) continue;  // enough sure answers
+          Detection detection = solve(job);
           ++out.solves;
           ++step.solves;
-          trial.solved = true;
-          trial.success = detection.result.success;
-          trial.score = detection.result.score;
-          trial.ms = watch.ElapsedMs();
           if (!detection.result.success) continue;
-          trial.region_iou = detection.result.corrected_mask.empty()
-                                 ? 0.0
-                                 : MaskIntersectionOverUnion(detection.result.corrected_mask, detection.region);
-          if (options.accept_confidence < 1.0 && detection.result.confidence >= options.accept_confidence &&
-              trial.region_iou >= options.accept_region_iou) {
+          const CandidateTrial& trial = out.trials[static_cast<size_t>(job.trial)];
+          if (detection.result.confidence >= options.accept_confidence && trial.region_iou >= options.accept_region_iou) {
             const cv::Mat& mask = detection.result.corrected_mask;
+            cv::Mat& taken = accepted[job.request];
+            if (taken.empty()) taken = cv::Mat::zeros(frame.depth.size(), CV_8U);
             const int pixels = cv::countNonZero(mask);
-            if (pixels > 0 && cv::countNonZero(mask & accepted) <= options.max_overlap * pixels) {
-              ++confident;
-              accepted |= mask;
+            if (pixels > 0 && cv::countNonZero(mask & taken) <= options.max_overlap * pixels) {
+              ++confident[job.request];
+              taken |= mask;
             }
           }
           solved.push_back(std::move(detection));
