@@ -134,5 +134,37 @@ TEST_F(BenchDatasetTest, UnknownIdentityChoosesAmongTheDatasetsObjects) {
   EXPECT_NE(given_only.output.find("need --identity unknown"), std::string::npos) << given_only.output;
 }
 
+// --masks none: the BOP localization task; the answers go to a BOP CSV, the summary has the
+// AR columns, a picture per image is written, and mask options contradict it.
+TEST_F(BenchDatasetTest, NoMasksFindsTheObjectsAndWritesTheirPoses) {
+  ASSERT_TRUE(std::filesystem::exists(kBench)) << kBench;
+  const std::string csv = *dir_ + "/none.csv";
+  const std::string pictures = *dir_ + "/pictures";
+  std::filesystem::create_directories(pictures);
+  const test::CommandResult run =
+      test::RunCommand(kBench + " --dataset " + *dir_ + "/tiny --caches " + *dir_ + "/caches --masks none --out " + csv +
+                       " --detect-pictures " + pictures + " --hypotheses 4");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("BOP localization without masks"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("| object | targets | answered | ADD(-S)@0.1d (%) | AR |"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("| support |"), std::string::npos) << run.output;
+  const std::vector<std::vector<std::string>> rows = ReadCsv(csv);
+  ASSERT_GE(rows.size(), 2u) << "a header and at least one answer\n" << run.output;
+  EXPECT_EQ(rows[0][0], "scene_id");
+  for (size_t row = 1; row < rows.size(); ++row) {
+    ASSERT_EQ(rows[row].size(), 7u);
+    const int obj_id = std::stoi(rows[row][2]);
+    EXPECT_TRUE(obj_id == 1 || obj_id == 2) << obj_id;
+  }
+  int written = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(pictures)) written += entry.path().extension() == ".png";
+  EXPECT_GE(written, 1);
+
+  const test::CommandResult contradiction = test::RunCommand(kBench + " --dataset " + *dir_ + "/tiny --caches " +
+                                                             *dir_ + "/caches --masks none --degrade-masks erode");
+  EXPECT_EQ(contradiction.exit_code, 2);
+  EXPECT_NE(contradiction.output.find("--masks none takes none of"), std::string::npos) << contradiction.output;
+}
+
 }  // namespace
 }  // namespace g6d
