@@ -211,6 +211,10 @@ int main(int argc, char** argv) {
                  "--masks none: stop solving an object's candidates once it has its count of answers this confident "
                  "that explain their regions (1 = solve them all)")
       ->capture_default_str();
+  bool crease_split = false;
+  app.add_flag("--crease-split", crease_split,
+               "split a mask's depth segments wider than the object at concave creases (SolverOptions::"
+               "split_merged_at_creases; off by default)");
   std::string detect_pictures;
   app.add_option("--detect-pictures", detect_pictures,
                  "--masks none: write a picture of the support, segments, solved regions and answers per image "
@@ -236,6 +240,7 @@ int main(int argc, char** argv) {
     if (no_appearance) options.appearance_tiebreak = false;
     if (no_occlusion) options.score.occlusion_margin_m = 0.0;
     options.mask_trust = g6d::ParseMaskTrust(mask_trust);
+    options.split_merged_at_creases = crease_split;
     if (no_dedupe) options.distinct_pose_fraction = 0.0;
     if (point_to_point) options.icp.point_to_plane = false;
     if (icp_point_iterations >= 0) options.icp.point_to_point_iterations = icp_point_iterations;

@@ -81,6 +81,17 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
     const double noise_m = options.segments.noise_sigmas * options.segments.sensor_noise_at_1m * observation->z_m * observation->z_m;
     const double pixel_m = observation->z_m / std::min(frame.camera.fx, frame.camera.fy);
     observation->score.max_object_extent_m = diameter_m + 2.0 * (noise_m + pixel_m);
+    // A segment wider than the object holds more than the object: a merged mask or a box
+    // over neighbours that touch it at the same depth. Where two convex objects touch they
+    // meet in a concave crease, which splits them (a mask of one object alone is left as
+    // the depth cuts it: its own concavities would only split it finer).
+    bool too_wide = false;
+    for (const DepthSegment& segment : segments.segments) {
+      too_wide = too_wide || segment.spans.Extent() > observation->score.max_object_extent_m;
+    }
+    if (too_wide && options.split_merged_at_creases) {
+      segments = SegmentByDepthAndCreases(frame.camera, depth, mask, options.segments, nullptr);
+    }
   }
   const DepthSegmentation* segmentation = by_segment ? &segments : nullptr;
   const bool grow = options.mask_trust == MaskTrust::kDepth && options.region.grow_fraction > 0.0;

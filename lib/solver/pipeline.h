@@ -48,6 +48,13 @@ struct SolverOptions {
   /// The mask's depth segments (kDepth): each pose owns the segments it covers and the rest
   /// are another object's (ScoreOptions::segment_own_fraction; a merged or boxed mask).
   SegmentOptions segments;
+  /// kDepth: when a depth segment of the mask is wider than the object (a merged mask, a
+  /// box), the mask's segments are split at concave creases too (SegmentByDepthAndCreases),
+  /// so that objects touching at the same depth each own their part. Off: on LM-O's merged
+  /// masks it measured 75.1% against 76.6% without, boxes 82.4% either way (bench/RESULTS.md,
+  /// issue 23): there the touching objects' own concavities split them as well, and the
+  /// ownership of the pieces misleads S more than the merge did.
+  bool split_merged_at_creases = false;
   /// When the mask's depth segments span more than the object can (kDepth: merged with a
   /// neighbour, or a box), the search (features, matching, PnP) also runs on each of its
   /// largest segments within the object's reach, at most this many; the hypotheses are
