@@ -49,7 +49,9 @@ int main(int argc, char** argv) {
   app.add_option("--instances", instances,
                  "where each instance is: label (its GT visible mask in the label image) or box "
                  "(only the bounding box of that mask grown by --box-margin-px and clipped to the "
-                 "image, no label image: g6d-bench-dataset --degrade-masks box's masks)")
+                 "image, no label image: g6d-bench-dataset --degrade-masks box's masks) or none "
+                 "(one detection request per object, no mask and no box, count = its target "
+                 "instances: the service finds them itself; needs --identity given)")
       ->capture_default_str();
   app.add_option("--box-margin-px", options.box_margin_px,
                  "--instances box: margin around the mask's bounding box, pixels (as "
@@ -71,7 +73,7 @@ int main(int argc, char** argv) {
     const g6d::InputType type = g6d::ParseInputType(as);
     if (type != g6d::InputType::kG6d && (options.instances != g6d::InstanceInput::kLabel ||
                                          options.identity != g6d::IdentityInput::kGiven)) {
-      G6D_THROW("--instances box and --identity unknown need --as g6d (" << as
+      G6D_THROW("--instances box or none and --identity unknown need --as g6d (" << as
                                                                        << " frames carry only a label image "
                                                                           "and a label -> object map)");
     }
@@ -127,7 +129,7 @@ int main(int argc, char** argv) {
         "g6d-bop2lcm: %s scene %d: %d of %d images, %d instances (%s, identity %s) -> %s (%.1f "
         "MB, %s colour, channel %s, as %s; service options %s.yaml) in %.1f s; %s\n",
         report.source.c_str(), scene_id, report.frames_written, report.images_in_scene,
-        report.instances_written, instances == "box" ? "boxes" : "labels", identity.c_str(),
+        report.instances_written, instances == "box" ? "boxes" : instances == "none" ? "detection requests" : "labels", identity.c_str(),
         out.c_str(),
         static_cast<double>(std::filesystem::file_size(out)) / 1e6, color.c_str(),
         options.channel.c_str(), as.c_str(), out.c_str(), report.seconds, selection.c_str());

@@ -73,7 +73,8 @@ ColorEncoding ParseColorEncoding(const std::string& text) {
 InstanceInput ParseInstanceInput(const std::string& text) {
   if (text == "label") return InstanceInput::kLabel;
   if (text == "box") return InstanceInput::kBox;
-  G6D_THROW("instance input '" << text << "' is not one of label, box");
+  if (text == "none") return InstanceInput::kNone;
+  G6D_THROW("instance input '" << text << "' is not one of label, box, none");
 }
 
 IdentityInput ParseIdentityInput(const std::string& text) {
@@ -136,6 +137,8 @@ std::string BopToLcmOptions::Check() const {
   if (start_utime < 0) return "start_utime must be >= 0, got " + std::to_string(start_utime);
   if (split.empty()) return "split must not be empty";
   if (box_margin_px < 0) return "box_margin_px must be >= 0, got " + std::to_string(box_margin_px);
+  if (instances == InstanceInput::kNone && identity != IdentityInput::kGiven)
+    return "instances none (a detection request per object) needs identity given";
   const std::string bad_encode = encode.Check();
   if (!bad_encode.empty()) return "encode: " + bad_encode;
   return "";
@@ -187,8 +190,27 @@ rgbd_frame_t MakeBopFrameMessage(const BopScene& scene, const BopFrame& frame,
   int64_t overlap = 0;
   int empty = 0;
   const bool boxes = options.instances == InstanceInput::kBox;
+  const bool none = options.instances == InstanceInput::kNone;
   rgbd_frame_t message{};
-  for (int gt_idx : gt_indices) {
+  if (none) {
+    // One detection request per object, in the order of its first chosen instance.
+    for (int gt_idx : gt_indices) {
+      const std::string object_id = BopObjectName(frame.gt[gt_idx].obj_id);
+      auto request = std::find_if(message.instances.begin(), message.instances.end(),
+                                  [&](const instance_t& i) { return i.object_id == object_id; });
+      if (request != message.instances.end()) {
+        ++request->count;
+        continue;
+      }
+      instance_t instance{};  // {}: label 0 and no box: a detection request
+      instance.object_id = object_id;
+      instance.score = 1.0f;
+      instance.gt_index = -1;  // it stands for every instance of the object
+      instance.count = 1;
+      message.instances.push_back(instance);
+    }
+  }
+  for (int gt_idx : none ? std::vector<int>() : gt_indices) {
     const cv::Mat mask = LoadBopMaskVisib(scene, frame.im_id, gt_idx);
     if (mask.size() != rgb.size()) {
       G6D_THROW("scene " << scene.scene_id << " image " << frame.im_id << ": mask_visib of gt_idx "
@@ -252,7 +274,7 @@ rgbd_frame_t MakeBopFrameMessage(const BopScene& scene, const BopFrame& frame,
       EncodeImage(rgb, image_t::FORMAT_RGB8, ColorCompression(options.color), options.encode);
   message.depth =
       EncodeImage(depth, image_t::FORMAT_DEPTH_U16, image_t::COMPRESSION_ZSTD, options.encode);
-  if (boxes) {
+  if (boxes || none) {
     // No label image: a 0 x 0 plane (DecodeFrame reads it as "none").
     message.labels = image_t{};
     message.labels.pixel_format = image_t::FORMAT_LABEL_U8;

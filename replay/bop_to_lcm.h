@@ -9,7 +9,9 @@
 /// label image (LABEL_U8 when every label fits, else LABEL_U16; zstd). Instance `label` =
 /// BOP gt_idx + 1, `gt_index` = gt_idx, `object_id` = BOP stem "obj_%06d", `score` = 1.
 /// With InstanceInput::kBox an instance is a box instead (label 0, no label image at all:
-/// a 0 x 0 label plane); with IdentityInput::kUnknown its object_id is empty.
+/// a 0 x 0 label plane); with InstanceInput::kNone each object of the image is one
+/// detection request (no mask, no box, `count` its instances; no label image); with
+/// IdentityInput::kUnknown its object_id is empty.
 
 #include <cstdint>
 #include <string>
@@ -42,9 +44,12 @@ enum class InstanceInput {
   kBox,    ///< a box only: the bounding box of its GT visible mask grown by box_margin_px on
            ///< each side and clipped to the image (g6d-bench-dataset --degrade-masks box's
            ///< mask, DegradeMask kBox); an instance whose mask is empty is left out
+  kNone,   ///< neither: one detection request per object of the image (label 0, no box,
+           ///< gt_index -1) with `count` = how many of its instances were chosen (a target's
+           ///< inst_count): the service finds them itself (BOP's localization task)
 };
 
-/// Parses "label" or "box"; throws g6d::Error naming the bad value otherwise.
+/// Parses "label", "box" or "none"; throws g6d::Error naming the bad value otherwise.
 InstanceInput ParseInstanceInput(const std::string& text);
 
 /// Which object each instance is, as the frames say it.
@@ -73,7 +78,8 @@ struct BopToLcmOptions {
   /// When false, every image and every GT instance is included, targets or not.
   bool use_targets = true;
   std::string split = "test";  ///< split folder of the scene
-  InstanceInput instances = InstanceInput::kLabel;  ///< masks (label image) or boxes
+  InstanceInput instances = InstanceInput::kLabel;  ///< masks (label image), boxes, or neither
+                                                    ///< (kNone needs IdentityInput::kGiven)
   /// kBox: margin added on each side of the GT visible mask's bounding box, pixels, >= 0
   /// (6, as g6d-bench-dataset's --degrade-px default).
   int box_margin_px = 6;

@@ -172,7 +172,9 @@ std::string ReplaySummaryJson(const ReplayOptions& options, const FrameLogStats&
 /// (-1: no track), frames_since_detection, mask_iou (the answer's mask vs the request's),
 /// identity_searched (the request had no object id; object_id is then the chosen one),
 /// runner_up_object_id and runner_up_object_score (the runner-up identity and its S; null
-/// without one), candidates_tried, position (m) and orientation (w, x, y, z) of
+/// without one), candidates_tried, request_index (the instance it answers),
+/// found_without_mask, region_box ([x, y, width, height] px) and region_pixels (the region
+/// a detection request's answer was solved on; zeros otherwise), position (m) and orientation (w, x, y, z) of
 /// cam_from_object, and the frame's latency_s and service total_s. Failed estimates are
 /// included; frames rejected as a whole or never answered give no line.
 std::string EstimatesJsonLines(const std::vector<ReplayedFrame>& frames);

@@ -25,7 +25,8 @@ esac
 TSAN_TESTS=(service_test service_process_test frame_codec_test mailbox_test service_options_test
   template_store_test executor_test template_bank_test pipeline_test lcm_loop_test
   service_adapters_test background_detector_test tracker_test debug_images_test
-  frame_sources_test status_tool_test cache_watcher_test service_reload_test service_input_test)
+  frame_sources_test status_tool_test cache_watcher_test service_reload_test service_input_test
+  service_detect_test)
 TSAN_TARGETS=("${TSAN_TESTS[@]}" g6d-service g6d-status)
 
 # The ASan subset of the CI run (a cold build of every test under ASan took about 40 of CI's

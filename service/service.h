@@ -141,6 +141,22 @@ class Service {
   /// the search throws.
   pose_estimate_t IdentifyInstance(const Job& job, size_t index,
                                    const std::vector<const TemplateBank*>& candidates);
+  /// A live track tried first for a detection request of its object (issue 23): the
+  /// instance to track is the track's predicted silhouette in this frame (CorrectedMask).
+  struct TrackProbe {
+    size_t request = 0;  ///< the detection request's index in the frame's instances
+    Instance instance;   ///< object id and the predicted corrected mask
+  };
+  /// The probes of the frame's detection requests `detecting` (those with an object id
+  /// that no masked instance of the frame names): the live tracks of each object at
+  /// `time_s`, lowest S_A first, at most the request's count. Scheduler thread.
+  std::vector<TrackProbe> MakeTrackProbes(const Job& job, double time_s,
+                                          const std::vector<size_t>& detecting,
+                                          const std::vector<Instance>& masked) const;
+  /// TrackWithPlan of one probe (a plan that continues a track); *needs_detection when the
+  /// track was not accepted. A failed answer when abandoned or on an exception.
+  TrackedAnswer SolveProbe(const Job& job, const TrackProbe& probe, const TrackPlan& plan,
+                           bool* needs_detection);
   /// Tracker::Plan of the job's solvable `instances` at frame time `time_s`, or detection
   /// plans (and the tracks forgotten) if it throws.
   std::vector<TrackPlan> PlanFrame(const Job& job, double time_s,

@@ -44,6 +44,8 @@ std::string ServiceOptions::Check() const {
     out << "limits." << error;
   else if (const std::string error = solver.Check(); !error.empty())
     out << "solver." << error;
+  else if (const std::string error = detect.Check(); !error.empty())
+    out << error;  // "DetectOptions.<field> ..."
   else if (const std::string error = adapter.Check(input_type); !error.empty())
     out << error;
   else if (publish_rigid_transforms && rigid_transform_prefix.empty())

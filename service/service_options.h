@@ -7,6 +7,7 @@
 #include <string>
 
 #include "service/debug_images.h"
+#include "solver/detect.h"
 #include "solver/pipeline.h"
 #include "track/tracker.h"
 #include "wire/frame_codec.h"
@@ -71,6 +72,9 @@ struct ServiceOptions {
   /// before (README, "The service"), so the service no longer trades accuracy for speed by
   /// default; --hypotheses and --budget-ms bound the time per instance where needed.
   SolverOptions solver;
+  /// Detection requests (instances with neither mask nor box): the proposals, their ranking
+  /// and the acceptance of DetectObjects (solver/detect.h); its solves use `solver`.
+  DetectOptions detect;
   /// Tracking (README, "Tracking"): on by default; `tracking.enabled` false (--tracking
   /// off) answers every instance with the full solver, exactly as without a tracker.
   /// Periodic re-detections run in the background by default (a thread of their own at a

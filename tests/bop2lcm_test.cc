@@ -283,6 +283,53 @@ TEST_F(Bop2LcmSynthetic, BoxesAndUnknownIdentity) {
   EXPECT_EQ(BoxOfMask(cv::Mat::zeros(20, 30, CV_8U), 6), cv::Rect());
 }
 
+// --instances none: per image, one detection request per target object (label 0, no box,
+// count = its target instances, gt_index -1) and no label image; the service decodes each
+// as a detection request. Unknown identity is refused with it.
+TEST_F(Bop2LcmSynthetic, DetectionRequestsPerTargetObject) {
+  const std::string log_path = test::TempDir("bop2lcm_none") + "/scene.lcmlog";
+  BopToLcmOptions options;
+  options.instances = InstanceInput::kNone;
+  const BopToLcmReport report = WriteBopSceneLog(options, dataset_->root, 1, log_path);
+  ASSERT_TRUE(report.success) << report.message;
+  const std::vector<LoggedFrame> frames = ReadLog(log_path);
+  ASSERT_EQ(frames.size(), 2u);  // the target images, as with labels
+  const BopScene scene = LoadBopScene(dataset_->root, 1);
+  const std::vector<BopTarget> targets =
+      LoadBopTargets(dataset_->root + "/test_targets_bop19.json");
+  int requested = 0;
+  for (const LoggedFrame& logged : frames) {
+    const rgbd_frame_t& message = logged.frame;
+    SCOPED_TRACE("image " + std::to_string(message.image_id));
+    EXPECT_EQ(message.labels.width, 0);
+    EXPECT_TRUE(message.labels.data.empty());
+    // How many instances of each object the targets chose in this image.
+    std::map<std::string, int> chosen;
+    const BopFrame& frame = scene.Frame(message.image_id);
+    for (int gt_idx : TargetInstances(frame, 1, targets)) ++chosen[BopObjectName(frame.gt[gt_idx].obj_id)];
+    ASSERT_EQ(message.instances.size(), chosen.size());
+    const DecodedFrame decoded = DecodeFrame(message);
+    for (size_t i = 0; i < message.instances.size(); ++i) {
+      const instance_t& instance = message.instances[i];
+      EXPECT_EQ(instance.label, 0);
+      EXPECT_EQ(instance.box[2], 0);
+      EXPECT_EQ(instance.gt_index, -1);
+      ASSERT_EQ(chosen.count(instance.object_id), 1u) << instance.object_id;
+      EXPECT_EQ(instance.count, chosen[instance.object_id]);
+      EXPECT_TRUE(decoded.instances[i].error.empty()) << decoded.instances[i].error;
+      EXPECT_TRUE(decoded.instances[i].detect);
+      EXPECT_EQ(decoded.instances[i].count, instance.count);
+      requested += instance.count;
+    }
+  }
+  EXPECT_EQ(requested, 3);  // the targets' instances, as --instances label sends them
+  EXPECT_EQ(report.instances_written, static_cast<int>(frames[0].frame.instances.size() +
+                                                       frames[1].frame.instances.size()));
+  options.identity = IdentityInput::kUnknown;
+  EXPECT_NE(options.Check().find("instances none"), std::string::npos);
+  EXPECT_EQ(ParseInstanceInput("none"), InstanceInput::kNone);
+}
+
 TEST_F(Bop2LcmSynthetic, ToolWritesBoxesAndRefusesThemForForeignTypes) {
   const std::string dir = test::TempDir("bop2lcm_tool_boxes");
   const test::CommandResult ok = test::RunCommand(
@@ -304,7 +351,7 @@ TEST_F(Bop2LcmSynthetic, ToolWritesBoxesAndRefusesThemForForeignTypes) {
       kBop2Lcm + " --dataset " + dataset_->root + " --scene 1 --instances box --as drake --out " +
       dir + "/b.lcmlog");
   EXPECT_EQ(foreign.exit_code, 2);
-  EXPECT_THAT(foreign.output, HasSubstr("--instances box and --identity unknown need --as g6d"));
+  EXPECT_THAT(foreign.output, HasSubstr("--instances box or none and --identity unknown need --as g6d"));
   const test::CommandResult bad = test::RunCommand(kBop2Lcm + " --dataset " + dataset_->root +
                                                    " --scene 1 --instances mask --out " + dir +
                                                    "/c.lcmlog");

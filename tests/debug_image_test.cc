@@ -48,6 +48,7 @@ DebugImageInput TwoInstances() {
   ok.mode = pose_estimate_t::MODE_TRACKED;
   input.answer.estimates = {
       ok, Estimate("other", pose_estimate_t::STATUS_NO_SOLUTION, "too few matches")};
+  input.answer.estimates[1].request_index = 1;  // each answers its own instance
   input.answer.num_estimates = 2;
   auto bank = std::make_shared<TemplateBank>();
   bank->object_id = "cube";

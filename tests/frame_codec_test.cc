@@ -426,7 +426,7 @@ TEST(DecodeFrame, InstanceProblemsStayWithTheInstance) {
   message.instances.insert(
       message.instances.end(),
       {MakeInstance("obj_000009", 3),  // no pixel carries label 3
-       MakeInstance("obj_000009", 0),  // no mask and no box
+       MakeInstance("obj_000009", 0),  // no mask and no box: a detection request, no error
        MakeInstance("obj_000009", 300),  // a LABEL_U8 image cannot hold it
        MakeInstance("obj_000009", -2), no_id,
        MakeInstance("obj_000009", 0, cv::Rect(kWidth, 0, 5, 5)),    // right of the image
@@ -441,7 +441,7 @@ TEST(DecodeFrame, InstanceProblemsStayWithTheInstance) {
   EXPECT_TRUE(decoded.instances[1].error.empty());
   const char* expected[] = {
       "instance 2 (obj_000009): label 3 has no pixels",
-      "instance 3 (obj_000009): no mask and no box",
+      "",
       "label 300 has no pixels",
       "label must be > 0 for a mask, or 0 with a box (got -2)",
       "instance 6 (identity unknown): candidate_ids[1] is empty",
@@ -450,8 +450,13 @@ TEST(DecodeFrame, InstanceProblemsStayWithTheInstance) {
       "box height must be > 0 (got -1)",
       "instance 10 (obj_000009): label 3 has no pixels",
       "num_candidate_ids 1 but 0 candidate ids"};
+  EXPECT_TRUE(decoded.instances[3].error.empty()) << decoded.instances[3].error;
+  EXPECT_TRUE(decoded.instances[3].detect);
   for (size_t i = 2; i < decoded.instances.size(); ++i) {
     SCOPED_TRACE("instance " + std::to_string(i));
+    EXPECT_EQ(decoded.instances[i].index, static_cast<int32_t>(i));
+    if (i == 3) continue;
+    EXPECT_FALSE(decoded.instances[i].detect);
     EXPECT_NE(decoded.instances[i].error.find(expected[i - 2]), std::string::npos)
         << decoded.instances[i].error;
     EXPECT_TRUE(decoded.instances[i].mask.empty());
@@ -585,16 +590,17 @@ TEST(DecodeRgbdFrameMessage, RefusesHugeDeclaredSizesWithoutAllocating) {
   ExpectError([&] { DecodeRgbdFrameMessage(bad.data(), static_cast<int64_t>(bad.size())); },
               {"message:", "camera_id declares"});
   // num_instances: the last instance has 4 + 11 (object id) + 12 (label, score, gt_index)
-  // + 16 (box) + 4 (num_candidate_ids) bytes, the first as many.
-  const size_t num_instances_offset = bytes.size() - 2 * (4 + 11 + 12 + 16 + 4) - 4;
+  // + 16 (box) + 4 (num_candidate_ids) + 4 (count) bytes, the first as many.
+  const size_t num_instances_offset = bytes.size() - 2 * (4 + 11 + 12 + 16 + 4 + 4) - 4;
   bad = bytes;
   PutI32(&bad, num_instances_offset, 1 << 30);
   ExpectError([&] { DecodeRgbdFrameMessage(bad.data(), static_cast<int64_t>(bad.size())); },
               {"message:", "num_instances declares"});
-  // num_candidate_ids of the last instance (the last 4 bytes), far more than remain.
+  // num_candidate_ids of the last instance (before its count, the last 4 bytes), far more
+  // than remain.
   for (int32_t huge : {1 << 30, -1}) {
     bad = bytes;
-    PutI32(&bad, bytes.size() - 4, huge);
+    PutI32(&bad, bytes.size() - 8, huge);
     ExpectError([&] { DecodeRgbdFrameMessage(bad.data(), static_cast<int64_t>(bad.size())); },
                 {"message:", "instances[1].num_candidate_ids declares"});
   }
@@ -631,10 +637,59 @@ TEST(DecodeRgbdFrameMessage, BoxAndCandidateIdsRoundTrip) {
   EXPECT_TRUE(frame.instances[1].identity_unknown());
   EXPECT_EQ(frame.instances[1].box, cv::Rect(3, 4, 20, 10));
   EXPECT_EQ(frame.instances[1].candidate_ids, instance.candidate_ids);
-  // A candidate id cut short by the end of the message is refused before decoding.
+  // A candidate id cut short by the end of the message is refused before decoding (the
+  // instance's count, 4 bytes, follows it), and so is a missing count.
   ExpectError(
-      [&] { DecodeRgbdFrameMessage(bytes.data(), static_cast<int64_t>(bytes.size()) - 3); },
+      [&] { DecodeRgbdFrameMessage(bytes.data(), static_cast<int64_t>(bytes.size()) - 7); },
       {"message:", "candidate_ids"});
+  ExpectError(
+      [&] { DecodeRgbdFrameMessage(bytes.data(), static_cast<int64_t>(bytes.size()) - 2); },
+      {"message:", "instances[1].count"});
+}
+
+// Neither mask nor box: a detection request with its count (<= 0 means 1), for an object
+// or, without an object id, for its candidates; no mask and no error. A box of width > 0
+// and no height is still refused.
+TEST(DecodeFrame, NoMaskAndNoBoxIsADetectionRequestWithItsCount) {
+  rgbd_frame_t message = MakeFrame();
+  instance_t three = MakeInstance("obj_000003", 0);
+  three.count = 3;
+  instance_t negative = MakeInstance("obj_000004", 0, cv::Rect(5, 5, 0, 10));  // width 0: no box
+  negative.count = -2;
+  instance_t unknown = MakeInstance("", 0);
+  unknown.candidate_ids = {"obj_000001", "obj_000002", "obj_000001"};
+  unknown.num_candidate_ids = 3;
+  unknown.count = 2;
+  instance_t flat = MakeInstance("obj_000005", 0, cv::Rect(5, 5, 10, 0));
+  flat.count = 4;
+  message.instances.insert(message.instances.end(), {three, negative, unknown, flat});
+  message.num_instances = static_cast<int32_t>(message.instances.size());
+  // Through the wire, as the service gets it.
+  const std::vector<uint8_t> bytes = Encode(message);
+  const DecodedFrame frame =
+      DecodeFrame(DecodeRgbdFrameMessage(bytes.data(), static_cast<int64_t>(bytes.size())));
+  ASSERT_EQ(frame.instances.size(), 6u);
+  EXPECT_FALSE(frame.instances[0].detect);  // a label
+  EXPECT_EQ(frame.instances[0].count, 1);
+  const int expected_count[] = {3, 1, 2};
+  for (size_t i = 2; i < 5; ++i) {
+    SCOPED_TRACE("instance " + std::to_string(i));
+    const DecodedInstance& request = frame.instances[i];
+    EXPECT_TRUE(request.error.empty()) << request.error;
+    EXPECT_TRUE(request.detect);
+    EXPECT_EQ(request.count, expected_count[i - 2]);
+    EXPECT_EQ(request.index, static_cast<int32_t>(i));
+    EXPECT_TRUE(request.mask.empty());
+    EXPECT_EQ(request.mask_pixels, 0);
+    EXPECT_EQ(request.box, cv::Rect());
+  }
+  EXPECT_TRUE(frame.instances[4].identity_unknown());
+  EXPECT_EQ(frame.instances[4].candidate_ids,
+            (std::vector<std::string>{"obj_000001", "obj_000002"}));
+  EXPECT_FALSE(frame.instances[5].detect);
+  EXPECT_EQ(frame.instances[5].count, 1);
+  EXPECT_NE(frame.instances[5].error.find("box height must be > 0 (got 0)"), std::string::npos)
+      << frame.instances[5].error;
 }
 
 }  // namespace

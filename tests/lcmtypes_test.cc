@@ -245,6 +245,58 @@ TEST(PoseArray, MaskIouAndIdentityFieldsRoundTripAndChangeTheFingerprint) {
   EXPECT_EQ(got.appearance_agreement, 0.75);
 }
 
+// The fingerprints before mask-free input added instance_t's count and pose_estimate_t's
+// request_index, found_without_mask and region (lcmtypes/ at commit 790e8c6).
+constexpr int64_t kRgbdFrameHashBeforeDetection = static_cast<int64_t>(0xa3742d8b4390b73dULL);
+constexpr int64_t kPoseArrayHashBeforeDetection = static_cast<int64_t>(0x792d51346f23c0d1ULL);
+
+TEST(RgbdFrame, DetectionRequestCountRoundTripsAndChangesTheFingerprint) {
+  EXPECT_NE(g6d::rgbd_frame_t::getHash(), kRgbdFrameHashBeforeDetection);
+  g6d::rgbd_frame_t frame = MakeFrame();
+  g6d::instance_t request{};  // label 0, no box: a detection request
+  request.object_id = "obj_000005";
+  request.gt_index = -1;
+  request.count = 3;
+  frame.instances.push_back(request);
+  frame.num_instances = 2;
+  std::vector<uint8_t> bytes(static_cast<size_t>(frame.getEncodedSize()));
+  ASSERT_EQ(frame.encode(bytes.data(), 0, static_cast<int>(bytes.size())),
+            static_cast<int>(bytes.size()));
+  g6d::rgbd_frame_t decoded;
+  ASSERT_EQ(decoded.decode(bytes.data(), 0, static_cast<int>(bytes.size())),
+            static_cast<int>(bytes.size()));
+  ASSERT_EQ(decoded.num_instances, 2);
+  EXPECT_EQ(decoded.instances[0].count, 0);  // made with {}: the default, 1
+  EXPECT_EQ(decoded.instances[1].count, 3);
+  EXPECT_EQ(decoded.instances[1].label, 0);
+  EXPECT_EQ(decoded.instances[1].box[2], 0);
+  EXPECT_EQ(decoded.instances[1].object_id, "obj_000005");
+}
+
+TEST(PoseArray, DetectionFieldsRoundTripAndChangeTheFingerprint) {
+  EXPECT_NE(g6d::pose_array_t::getHash(), kPoseArrayHashBeforeDetection);
+  g6d::pose_array_t answer = MakeAnswer();
+  g6d::pose_estimate_t& estimate = answer.estimates[0];
+  estimate.request_index = 4;
+  estimate.found_without_mask = 1;
+  const int32_t region[4] = {100, 50, 80, 60};
+  std::copy(region, region + 4, estimate.region_box);
+  estimate.region_pixels = 3210;
+  const std::vector<uint8_t> bytes = Encode(answer);
+  g6d::pose_array_t decoded;
+  ASSERT_EQ(decoded.decode(bytes.data(), 0, static_cast<int>(bytes.size())),
+            static_cast<int>(bytes.size()));
+  ASSERT_EQ(decoded.num_estimates, 1);
+  const g6d::pose_estimate_t& got = decoded.estimates[0];
+  EXPECT_EQ(got.request_index, 4);
+  EXPECT_EQ(got.found_without_mask, 1);
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(got.region_box[i], region[i]);
+  EXPECT_EQ(got.region_pixels, 3210);
+  // The fields before them are where they were.
+  EXPECT_EQ(got.object_id, "obj_000005");
+  EXPECT_EQ(got.appearance_agreement, 0.75);
+}
+
 class Receiver {
  public:
   void Handle(const lcm::ReceiveBuffer*, const std::string& channel,

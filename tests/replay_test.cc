@@ -615,6 +615,10 @@ TEST(ReplayEndToEnd, SyntheticBopThroughTheRealService) {
       EXPECT_EQ(j["mask_iou"].get<double>(), estimate.mask_iou);
       EXPECT_EQ(j["identity_searched"].get<bool>(), false);
       EXPECT_EQ(j["candidates_tried"].get<int>(), estimate.candidates_tried);
+      EXPECT_EQ(j["request_index"].get<int>(), estimate.request_index);
+      EXPECT_EQ(j["found_without_mask"].get<bool>(), false);
+      EXPECT_EQ(j["region_box"].size(), 4u);
+      EXPECT_EQ(j["region_pixels"].get<int>(), 0);
       if (estimate.status == pose_estimate_t::STATUS_OK) {
         EXPECT_GT(estimate.mask_iou, 0.0);
         EXPECT_EQ(estimate.candidates_tried, 1);

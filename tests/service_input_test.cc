@@ -273,7 +273,7 @@ TEST_F(ServiceInputTest, BadBoxesAndCandidatesAreAnsweredAndTheServiceKeepsServi
   const std::vector<std::pair<instance_t, Expected>> cases = {
       // A label wins over a box: this one's box (outside the image) is never read.
       {with_box(1, 5000, 5000, 10, 10), {pose_estimate_t::STATUS_OK, "ok"}},
-      {with_box(0, 0, 0, 0, 0), {pose_estimate_t::STATUS_BAD_INPUT, "instance 1 (box_000001): no mask and no box"}},
+      {with_box(0, 10, 10, 40, -3), {pose_estimate_t::STATUS_BAD_INPUT, "instance 1 (box_000001): box height must be > 0"}},
       {with_box(0, 700, 10, 40, 30),
        {pose_estimate_t::STATUS_BAD_INPUT,
         "box (x 700, y 10, width 40, height 30) lies outside the 640x480 image"}},

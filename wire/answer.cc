@@ -2,6 +2,8 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
+
 namespace g6d {
 
 FrameHeader HeaderOf(const rgbd_frame_t& message) {
@@ -37,6 +39,11 @@ pose_estimate_t EstimateFor(const DecodedInstance& instance) {
   estimate.identity_searched = instance.identity_unknown();
   estimate.runner_up_object_score = 0.0;
   estimate.candidates_tried = 0;
+  // Which request it answers; found in the service's own proposals only when it says so.
+  estimate.request_index = instance.index;
+  estimate.found_without_mask = false;
+  std::fill(estimate.region_box, estimate.region_box + 4, 0);
+  estimate.region_pixels = 0;
   return estimate;
 }
 
@@ -146,6 +153,24 @@ pose_estimate_t MakeTrackedEstimate(const DecodedInstance& instance, const Track
   estimate.mode = ModeOnWire(answer.mode);
   estimate.track_id = answer.track_id;
   estimate.frames_since_detection = answer.frames_since_detection;
+  return estimate;
+}
+
+pose_estimate_t MakeFoundEstimate(const DecodedInstance& instance, const std::string& object_id,
+                                  const TrackedAnswer& answer, const cv::Rect& region_box,
+                                  int region_pixels, int candidates) {
+  DecodedInstance found = instance;
+  found.object_id = object_id;
+  pose_estimate_t estimate = MakeTrackedEstimate(found, answer);
+  if (instance.identity_unknown()) {
+    estimate.identity_searched = true;
+    estimate.candidates_tried = candidates;
+  }
+  if (estimate.status != pose_estimate_t::STATUS_OK) return estimate;
+  estimate.found_without_mask = true;
+  const int32_t box[4] = {region_box.x, region_box.y, region_box.width, region_box.height};
+  std::copy(box, box + 4, estimate.region_box);
+  estimate.region_pixels = region_pixels;
   return estimate;
 }
 

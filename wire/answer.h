@@ -45,7 +45,8 @@ using Timings = std::vector<std::pair<std::string, double>>;
 /// message, hypotheses and solver time: flags false, numbers 0, identity quaternions.
 /// Mode MODE_DETECTED, track_id -1, frames_since_detection 0 (an answer without tracking).
 /// mask_iou is PoseResult::mask_iou (0 on failure); identity_searched false, no runner-up
-/// identity ("", 0), candidates_tried 1.
+/// identity ("", 0), candidates_tried 1. request_index is instance.index; not found
+/// without a mask (found_without_mask false, region_box and region_pixels 0).
 pose_estimate_t MakePoseEstimate(const DecodedInstance& instance, const PoseResult& result);
 
 /// The estimate's cam_from_object (position in metres, the quaternion w x y z normalized).
@@ -65,13 +66,24 @@ pose_estimate_t MakeIdentifiedEstimate(const DecodedInstance& instance,
 /// MODE_DETECTED, track_id -1 and frames_since_detection 0 whatever the answer says.
 pose_estimate_t MakeTrackedEstimate(const DecodedInstance& instance, const TrackedAnswer& answer);
 
+/// The estimate of one instance that a detection request (DecodedInstance::detect) found:
+/// MakeTrackedEstimate of `answer` for `object_id` (the request's, or the candidate found
+/// when the request named none: then identity_searched, and candidates_tried is
+/// `candidates`), found_without_mask true and the region it was solved on (`region_box`,
+/// pixels; `region_pixels`). A failed answer gives MakeTrackedEstimate's failure, without
+/// the region.
+pose_estimate_t MakeFoundEstimate(const DecodedInstance& instance, const std::string& object_id,
+                                  const TrackedAnswer& answer, const cv::Rect& region_box,
+                                  int region_pixels, int candidates);
+
 /// pose_estimate_t::MODE_* of a mode.
 int8_t ModeOnWire(AnswerMode mode);
 
 /// An estimate that carries only a failure: identity pose, score 2, confidence 0, no
 /// runner-up (identity quaternion, S 0), flags false, appearance agreement 0, mode
 /// MODE_DETECTED, track_id -1, frames_since_detection 0, mask_iou 0, identity_searched
-/// true exactly when the request had no object id, no runner-up identity, candidates_tried 0.
+/// true exactly when the request had no object id, no runner-up identity, candidates_tried 0,
+/// request_index instance.index, found_without_mask false, no region.
 pose_estimate_t MakeFailedEstimate(const DecodedInstance& instance, int8_t status,
                                    const std::string& message);
 

@@ -166,9 +166,13 @@ inline std::vector<BadCase> MakeBadCases(const rgbd_frame_t& good,
       pose_estimate_t::STATUS_BAD_INPUT);
   f = good;
   f.labels = empty_labels;
-  for (instance_t& instance : f.instances) instance.label = 0;
-  add("instance label 0 (no mask) and no box", f, "no mask and no box", kOk,
-      pose_estimate_t::STATUS_BAD_INPUT);
+  for (instance_t& instance : f.instances) {
+    // Neither mask nor box: a detection request, here for an object without a cache.
+    instance.label = 0;
+    instance.object_id = "obj_999997";
+  }
+  add("detection request of an unknown object", f, "no template cache for object id 'obj_999997'",
+      kOk, pose_estimate_t::STATUS_UNKNOWN_OBJECT);
   // Boxes (label 0): one wholly outside the image, one of no height.
   f = good;
   f.labels = empty_labels;

@@ -91,9 +91,14 @@ cv::Mat DrawDebugImage(const DebugImageInput& input, const OverlayStyle& style,
               << camera.width << " x " << camera.height);
   }
   const std::vector<pose_estimate_t>& estimates = input.answer.estimates;
-  if (estimates.size() != input.instances.size()) {
-    G6D_THROW("DrawDebugImage: " << estimates.size() << " estimates for " << input.instances.size()
-                                 << " instances (expected one per instance)");
+  // One estimate per instance, or, for a detection request, one per instance found:
+  // request_index names the instance each answers.
+  for (size_t i = 0; i < estimates.size(); ++i) {
+    const int32_t request = estimates[i].request_index;
+    if (request < 0 || static_cast<size_t>(request) >= input.instances.size()) {
+      G6D_THROW("DrawDebugImage: estimate " << i << " answers instance " << request << " of "
+                                            << input.instances.size() << " instances");
+    }
   }
   DebugImageReport local;
   DebugImageReport& out = report != nullptr ? *report : local;
@@ -110,7 +115,7 @@ cv::Mat DrawDebugImage(const DebugImageInput& input, const OverlayStyle& style,
       named_boxes[i] = DrawAnswered(estimate, model, camera, style, &raster, &canvas);
       if (model != nullptr) ++out.poses_drawn;
     } else {
-      named_boxes[i] = DrawFailed(input.instances[i], style, &canvas);
+      named_boxes[i] = DrawFailed(input.instances[estimates[i].request_index], style, &canvas);
       ++out.failures_drawn;
     }
   }

@@ -106,8 +106,8 @@ std::string CheckEncodedRgbdFrame(const void* data, int64_t size) {
   int32_t num_instances = 0;
   if (!reader.I32(&num_instances)) return "truncated at num_instances";
   // An encoded instance takes at least 4 + 1 (object id) + 3 x 4 (label, score, gt_index)
-  // + 4 x 4 (box) + 4 (num_candidate_ids) bytes; a candidate id at least 4 + 1.
-  constexpr int64_t kMinInstanceBytes = 37;
+  // + 4 x 4 (box) + 4 (num_candidate_ids) + 4 (count) bytes; a candidate id at least 4 + 1.
+  constexpr int64_t kMinInstanceBytes = 41;
   constexpr int64_t kMinStringBytes = 5;
   if (num_instances < 0 || num_instances * kMinInstanceBytes > reader.remaining()) {
     return "num_instances declares " + std::to_string(num_instances) + " instances but only " +
@@ -125,6 +125,7 @@ std::string CheckEncodedRgbdFrame(const void* data, int64_t size) {
     for (int32_t c = 0; c < num_candidates; ++c) {
       if (std::string e = CheckString(&reader, "instances[].candidate_ids[]"); !e.empty()) return e;
     }
+    if (!reader.Skip(4)) return "truncated at " + where + ".count";
   }
   return {};
 }
@@ -293,6 +294,7 @@ DecodedFrame DecodeFrame(const rgbd_frame_t& message, const DecodeLimits& limits
     instance.label = request.label;
     instance.score = request.score;
     instance.gt_index = request.gt_index;
+    instance.index = static_cast<int32_t>(i);
     const std::string name =
         "instance " + std::to_string(i) +
         (request.object_id.empty() ? std::string(" (identity unknown)") : " (" + request.object_id + ")");
@@ -335,7 +337,9 @@ DecodedFrame DecodeFrame(const rgbd_frame_t& message, const DecodeLimits& limits
       const int64_t x = request.box[0], y = request.box[1], width = request.box[2],
                     height = request.box[3];
       if (width <= 0) {
-        error << name << ": no mask and no box (label 0 means no mask: give a box, width > 0)";
+        // Neither mask nor box: the service finds the object itself (a detection request).
+        instance.detect = true;
+        instance.count = std::max(1, request.count);
       } else if (height <= 0) {
         error << name << ": box height must be > 0 (got " << height << ")";
       } else if (x >= image_rect.width || y >= image_rect.height || x + width <= 0 ||
@@ -356,6 +360,8 @@ DecodedFrame DecodeFrame(const rgbd_frame_t& message, const DecodeLimits& limits
     }
     instance.error = error.str();
     if (!instance.error.empty()) {
+      instance.detect = false;
+      instance.count = 1;
       instance.mask.release();
       instance.mask_pixels = 0;
       instance.box = cv::Rect();

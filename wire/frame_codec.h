@@ -46,7 +46,12 @@ rgbd_frame_t DecodeRgbdFrameMessage(const void* data, int64_t size);
 /// it); a label > 0 wins over a box, which is then ignored. Which object: object_id, or,
 /// when it is empty, one of candidate_ids (every loaded object when none are listed),
 /// chosen by the service with EstimatePoseOfUnknownObject.
+///
+/// Neither mask nor box (label 0, box width <= 0): a detection request. The service finds
+/// up to `count` instances of the object (of each candidate, or of every loaded object,
+/// when object_id is empty) in its own depth proposals (DetectObjects, solver/detect.h).
 struct DecodedInstance {
+  int32_t index = -1;     ///< position in the frame's instances (echoed as request_index)
   std::string object_id;  ///< as in the request; empty = identity unknown
   int32_t label = 0;      ///< as in the request
   float score = 0.0f;     ///< detection score, as in the request
@@ -57,10 +62,15 @@ struct DecodedInstance {
   /// Identity unknown: the candidates as requested, each once, in request order (empty =
   /// every loaded object). Empty when object_id is set.
   std::vector<std::string> candidate_ids;
-  cv::Mat mask;           ///< CV_8U frame size, 255 where labels == label or inside box (empty when error set)
+  /// A detection request: no mask and no box (label 0, box width <= 0); `mask` is empty.
+  bool detect = false;
+  /// A detection request's count: answer up to this many instances of each object (>= 1;
+  /// instance_t::count <= 0 means 1). 1 otherwise.
+  int count = 1;
+  cv::Mat mask;           ///< CV_8U frame size, 255 where labels == label or inside box (empty for a detection request or when error set)
   int mask_pixels = 0;    ///< pixels of the mask
   /// Empty when the instance can be solved; else why not (label < 0, label has no
-  /// pixels, label 0 without a box, a box of no size or outside the image, an empty
+  /// pixels, a box of width > 0 and no height, a box outside the image, an empty
   /// candidate id). The frame's other instances are still usable. Whether the object or
   /// the candidates have template caches is the service's to check.
   std::string error;
@@ -86,7 +96,7 @@ struct DecodedFrame {
 /// "labels: ..."), planes of different sizes, too many instances, or a label value in
 /// the label image that no instance names ("labels: label 7 (1234 pixels) is named by no
 /// instance"). A label plane of 0 x 0 pixels (no bytes, any format) means "no label image":
-/// every instance then needs a box. Problems of a single instance (see
+/// every instance then needs a box or is a detection request. Problems of a single instance (see
 /// DecodedInstance::error) are reported in that DecodedInstance's `error` instead.
 DecodedFrame DecodeFrame(const rgbd_frame_t& message, const DecodeLimits& limits = {});
 

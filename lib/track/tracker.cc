@@ -86,6 +86,33 @@ TrackedAnswer SolveWithPlan(const Frame& frame, const Instance& instance, const 
     answer.mode = AnswerMode::kDetected;
     return answer;
   }
+  bool needs_detection = false;
+  answer = TrackWithPlan(frame, instance, bank, solver_options, options, plan, executor, &needs_detection);
+  if (!needs_detection) return answer;
+  PoseResult tracked = std::move(answer.result);
+  answer.result = PoseResult();
+  // Lost, or a periodic check: the full solver, and the lower S of the two.
+  answer.periodic = plan.redetect && !answer.lost;
+  answer.mode = AnswerMode::kRedetected;
+  watch.Restart();
+  PoseResult detected = EstimatePose(frame, instance, bank, solver_options, executor);
+  answer.detect_ms = watch.ElapsedMs();
+  // In the frame any lower S wins (never worse than detection by S), as does a clearly
+  // better print at about the same S.
+  const bool detection_better =
+      detected.success && (detected.score < tracked.score || DetectionIsBetter(options, tracked, detected));
+  answer.from_track = tracked.success && !detection_better;
+  answer.result = answer.from_track ? std::move(tracked) : std::move(detected);
+  return answer;
+}
+
+TrackedAnswer TrackWithPlan(const Frame& frame, const Instance& instance, const TemplateBank& bank,
+                            const SolverOptions& solver_options, const TrackerOptions& options,
+                            const TrackPlan& plan, Executor* executor, bool* needs_detection) {
+  if (plan.track_id < 0) G6D_THROW("TrackWithPlan: the plan continues no track");
+  TrackedAnswer answer;
+  answer.track_id = plan.track_id;
+  Stopwatch watch;
   PoseResult tracked = TrackPose(frame, instance, bank, solver_options, options.solve, plan.starts, executor);
   answer.track_ms = watch.ElapsedMs();
   answer.tracked_score = tracked.details;
@@ -104,20 +131,11 @@ TrackedAnswer SolveWithPlan(const Frame& frame, const Instance& instance, const 
     answer.mode = plan.track.corrected ? AnswerMode::kRedetected : AnswerMode::kTracked;
     answer.from_track = true;
     answer.confirm_requested = plan.redetect;
+    *needs_detection = false;
     return answer;
   }
-  // Lost, or a periodic check: the full solver, and the lower S of the two.
-  answer.periodic = plan.redetect && !answer.lost;
-  answer.mode = AnswerMode::kRedetected;
-  watch.Restart();
-  PoseResult detected = EstimatePose(frame, instance, bank, solver_options, executor);
-  answer.detect_ms = watch.ElapsedMs();
-  // In the frame any lower S wins (never worse than detection by S), as does a clearly
-  // better print at about the same S.
-  const bool detection_better =
-      detected.success && (detected.score < tracked.score || DetectionIsBetter(options, tracked, detected));
-  answer.from_track = tracked.success && !detection_better;
-  answer.result = answer.from_track ? std::move(tracked) : std::move(detected);
+  answer.result = std::move(tracked);
+  *needs_detection = true;
   return answer;
 }
 

@@ -145,6 +145,19 @@ TrackedAnswer SolveWithPlan(const Frame& frame, const Instance& instance, const 
                             const SolverOptions& solver_options, const TrackerOptions& options,
                             const TrackPlan& plan, Executor* executor);
 
+/// The first half of SolveWithPlan for a plan that continues a track: TrackPose from the
+/// plan's starts and the loss decision (S_A, J, appearance), without the full solver. The
+/// answer's `lost` says whether the tracked pose was refused; when it was not, the answer
+/// is SolveWithPlan's tracked answer (mode kTracked, or kRedetected for a corrected track;
+/// confirm_requested for a periodic check in the background). `needs_detection` is set
+/// when the caller must run a detector of its own before answering: the pose was lost, or
+/// a periodic re-detection is due in the frame (plan.redetect without background checks);
+/// `result` then holds TrackPose's answer (possibly failed). Throws g6d::Error for a plan
+/// without a track. Thread-safe (reads only its arguments).
+TrackedAnswer TrackWithPlan(const Frame& frame, const Instance& instance, const TemplateBank& bank,
+                            const SolverOptions& solver_options, const TrackerOptions& options,
+                            const TrackPlan& plan, Executor* executor, bool* needs_detection);
+
 /// The tracks of one camera.
 class Tracker {
  public:

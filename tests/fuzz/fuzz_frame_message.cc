@@ -29,7 +29,12 @@ void CheckDecodedFrame(const g6d::rgbd_frame_t& message, const g6d::DecodedFrame
   G6D_CHECK(decoded.labels.size() == size);
   G6D_CHECK(decoded.instances.size() == message.instances.size());
   for (const g6d::DecodedInstance& instance : decoded.instances) {
-    if (instance.error.empty()) {
+    if (instance.error.empty() && instance.detect) {
+      // A detection request: no mask and no box; the count is at least 1.
+      G6D_CHECK(instance.mask.empty() && instance.mask_pixels == 0 && instance.box.empty());
+      G6D_CHECK(instance.count >= 1);
+    } else if (instance.error.empty()) {
+      G6D_CHECK(!instance.detect && instance.count == 1);
       G6D_CHECK(instance.mask.type() == CV_8UC1 && instance.mask.size() == size);
       G6D_CHECK(instance.mask_pixels > 0 &&
                 cv::countNonZero(instance.mask) == instance.mask_pixels);
@@ -39,7 +44,7 @@ void CheckDecodedFrame(const g6d::rgbd_frame_t& message, const g6d::DecodedFrame
         G6D_CHECK(instance.box.area() == instance.mask_pixels);
       }
     } else {
-      G6D_CHECK(instance.mask.empty());
+      G6D_CHECK(instance.mask.empty() && !instance.detect);
     }
   }
 }

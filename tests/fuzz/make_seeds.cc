@@ -294,6 +294,15 @@ void MakeFrameSeeds(const fs::path& fuzz_dir) {
   empty_candidate.instances[1].candidate_ids[1].clear();
   corpus.Add("near_empty_candidate_id", Encode(empty_candidate));
 
+  // Neither mask nor box (instance_t's count): detection requests, one of an object and
+  // one over candidates, with no label image.
+  rgbd_frame_t detect = boxes;
+  for (instance_t& instance : detect.instances) {
+    std::fill(instance.box, instance.box + 4, 0);
+    instance.count = 2;
+  }
+  corpus.Add("valid_detection_requests_no_label_image", Encode(detect));
+
   rgbd_frame_t zero_fx = base;
   zero_fx.fx = 0.0;
   corpus.Add("near_zero_fx", Encode(zero_fx));
