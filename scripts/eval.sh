@@ -26,8 +26,10 @@
 #   TRACKING=off           g6d-service --tracking: BOP scores every image on its own, so the
 #                          images are detected one by one (on: tracks across a scene's images)
 #   EVAL_ARGS="..."        extra g6d-eval arguments, e.g. "--adds-ids 21"
-#   INSTANCES=label        g6d-bop2lcm --instances: label (GT visible masks) or box (their
-#                          bounding boxes only, as g6d-bench-dataset --degrade-masks box)
+#   INSTANCES=label        g6d-bop2lcm --instances: label (GT visible masks), box (their
+#                          bounding boxes only, as g6d-bench-dataset --degrade-masks box) or
+#                          none (detection requests: object id and count only, as
+#                          g6d-bench-dataset --masks none)
 #   IDENTITY=given         g6d-bop2lcm --identity: given, or unknown (no object ids: the
 #                          service chooses among every loaded object)
 set -euo pipefail
