@@ -8,7 +8,9 @@
 #   4. replay the log one frame at a time (g6d-replay --mode wait)
 #   5. score the answers against the ground truth (g6d-eval), draw overlays (g6d-overlay)
 #   6. print one line per instance and a summary, stop the service
-#   7. tracking: make the moving-camera sequence (g6d-make-sample --sequence), serve it
+#   7. no masks: the same images again with only object ids and counts (detection
+#      requests); the service finds the objects; accuracy printed
+#   8. tracking: make the moving-camera sequence (g6d-make-sample --sequence), serve it
 #      with tracking on, replay it in real time (its own 30 Hz), print a timeline per
 #      object (detected / tracked / re-detected / wrong / dropped), counts, times, accuracy
 #
@@ -28,6 +30,7 @@
 #                      arrangement, scored on its own; on: tracks across the images
 #   EVAL_ARGS="..."    extra g6d-eval arguments, e.g. "--adds-ids 21" (YCB-V's foam brick)
 #   SEQUENCE_FRAMES=90 the tracking sequence's length (0: no tracking part; never with DATASET)
+#   NO_MASKS=1         0: skip the run without masks
 # Exit status 0 only when every step ran and every image was answered.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -161,7 +164,55 @@ python3 scripts/demo_report.py "${OUT}" "${DATASET}"
 echo "overlays (estimate green, ground truth blue): ${OUT}/overlays/ ($(find "${OUT}/overlays" -name '*.png' | wc -l) PNGs)"
 echo "per-target BOP table: ${OUT}/eval.txt; answers: ${OUT}/results.csv; service log: ${OUT}/service.log"
 
-# 6. Tracking: the moving-camera sequence at its own frame rate, the service tracking.
+# 6. No masks: the same images once more, each instance only an object id and a count (a
+#    detection request); the service finds the objects itself (learning-free proposals).
+if [[ "${NO_MASKS:-1}" == "1" ]]; then
+  RUN_NM="${OUT}/no_masks"
+  rm -rf "${RUN_NM}"
+  mkdir -p "${RUN_NM}/logs"
+  g6d_start_service "${BUILD_DIR}/service/g6d-service" "${CACHE_DIR}" "${URL}" "${RUN_NM}/service.log" "${service_args[@]}"
+  nm_failed=0
+  for scene in "${SCENES[@]}"; do
+    log="${RUN_NM}/logs/$(printf '%06d' "${scene}").lcmlog"
+    "${BUILD_DIR}/replay/g6d-bop2lcm" --dataset "${DATASET}" --scene "${scene}" --instances none --out "${log}" \
+      "${frame_args[@]+"${frame_args[@]}"}" > /dev/null
+    if ! "${BUILD_DIR}/replay/g6d-replay" --log "${log}" --lcm-url "${URL}" --mode wait --wait-for-service-ms 120000 \
+        --results-csv "${RUN_NM}/${scene}.csv" --summary-json "${RUN_NM}/${scene}.json" > "${RUN_NM}/replay_${scene}.txt" 2>&1; then
+      echo "[demo] no masks: the replay of scene ${scene} did not complete (see ${RUN_NM}/service.log)" >&2
+      nm_failed=1
+    fi
+  done
+  g6d_stop_service || nm_failed=1
+  {
+    echo "scene_id,im_id,obj_id,score,R,t,time"
+    for scene in "${SCENES[@]}"; do
+      if [[ -f "${RUN_NM}/${scene}.csv" ]]; then tail -n +2 "${RUN_NM}/${scene}.csv"; fi
+    done
+  } > "${RUN_NM}/results.csv"
+  # shellcheck disable=SC2086  # EVAL_ARGS is a list of words
+  if ((nm_failed == 0)) && "${BUILD_DIR}/tools/g6d-eval" --dataset "${DATASET}" --results "${RUN_NM}/results.csv" \
+      --json "${RUN_NM}/eval.json" --threads "${WORKERS}" "${SCORE_ARGS[@]+"${SCORE_ARGS[@]}"}" ${EVAL_ARGS:-} \
+      > "${RUN_NM}/eval.txt"; then
+    python3 - "${RUN_NM}" "${SCENES[@]}" <<'PYEOF'
+import json, sys
+run, scenes = sys.argv[1], sys.argv[2:]
+overall = json.load(open(f"{run}/eval.json"))["overall"]
+latencies = []
+for scene in scenes:
+    summary = json.load(open(f"{run}/{scene}.json"))
+    latencies.append(summary["latency_s"]["p50"])
+print(f"\nWithout masks (object ids and counts only; the service finds the objects): "
+      f"ADD(-S)@0.1d {100.0 * overall['add_recall']:.1f}% of {overall['targets']} targets, BOP AR {overall['ar']:.3f}, "
+      f"p50 {max(latencies):.2f} s per image through LCM")
+PYEOF
+    echo "no-mask answers: ${RUN_NM}/results.csv; BOP table: ${RUN_NM}/eval.txt; service log: ${RUN_NM}/service.log"
+  else
+    echo "[demo] no masks: the replay or g6d-eval failed (see ${RUN_NM}/)" >&2
+    failed=1
+  fi
+fi
+
+# 7. Tracking: the moving-camera sequence at its own frame rate, the service tracking.
 if ((SEQUENCE_FRAMES > 0)); then
   SEQUENCE="${OUT}/sequence"
   RUN="${OUT}/tracking"

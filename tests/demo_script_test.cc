@@ -58,6 +58,12 @@ TEST(DemoScript, RunsTheEmbeddedSampleThroughTheService) {
   EXPECT_EQ(CountLinesWith(run.output, instance_line), 9) << run.output;
   EXPECT_THAT(run.output, HasSubstr("ADD(-S)@0.1d recall:"));
   EXPECT_THAT(run.output, HasSubstr("p50"));
+  // The same images without masks: the service found the objects from ids and counts.
+  EXPECT_THAT(run.output, HasSubstr("Without masks (object ids and counts only; the service finds the objects): "
+                                    "ADD(-S)@0.1d "));
+  const Json no_masks = Json::parse(std::ifstream(out + "/no_masks/eval.json"));
+  EXPECT_EQ(no_masks["overall"]["targets"], 9);
+  EXPECT_GE(no_masks["overall"]["targets_with_estimate"].get<int>(), 6) << run.output;
   EXPECT_THAT(run.output, HasSubstr("p95"));
   EXPECT_THAT(run.output, HasSubstr("overlays (estimate green, ground truth blue): " + out +
                                     "/overlays/ (3 PNGs)"));
