@@ -82,8 +82,12 @@ struct DetectOptions {
   /// region's depth (about (f · diameter / z)² · π / 8 for a compact object).
   double min_area_fraction = 0.05;
   /// Candidates solved per object: its count plus this many, best ranked first (a candidate
-  /// mostly inside one already chosen for solving is skipped).
-  int extra_candidates = 2;
+  /// mostly inside one already chosen for solving is skipped). 1: on the real YCB-V sets the
+  /// object's region always ranked first or second; 2 costs half as much again and on the
+  /// sample let one wrong region beat the right one by S (97.2% against 100%,
+  /// bench/RESULTS.md, issue 23). The explaining-away pass gives an object without an
+  /// answer a second chance.
+  int extra_candidates = 1;
   /// Ranking: weight of the colour agreement against the size agreement (0 = size only).
   /// The colour term is the Bhattacharyya coefficient of chromaticity histograms of the
   /// region's pixels and the cache's appearance samples (neutral 0.5 for an uncoloured
