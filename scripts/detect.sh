@@ -49,7 +49,7 @@ else
 fi
 if [[ "${SAMPLE}" == "1" ]]; then
   "${BUILD_DIR}/tools/g6d-make-sample" --out "${OUT}/sample" --frames 12 --seed 1 --threads "${THREADS}" --reuse \
-    > "${OUT}/sample.make.log"
+    > "${OUT}/sample.make.log" 2>&1
   NAMES+=("sample")
   PATHS+=("${OUT}/sample")
 fi
