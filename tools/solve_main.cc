@@ -261,17 +261,21 @@ int RunFind(const g6d::Frame& frame, const std::vector<g6d::DetectRequest>& requ
   for (const g6d::DetectRequest& request : requests) std::printf(" %s x%d", request.bank->object_id.c_str(), request.count);
   std::printf("\n");
   std::printf("detection   %s: %s\n", report.success ? "ok" : "failed", report.message.c_str());
-  std::printf("support     %d plane(s), %d px removed\n", report.support_planes,
-              report.support.empty() ? 0 : cv::countNonZero(report.support));
-  std::printf("regions     %zu from %zu segments; %d solved, %d answers, %d suppressed\n", report.proposals.size(),
-              report.segmentation.segments.size(), report.solves, report.answers, report.suppressed);
+  std::printf("support     %d plane(s), %d px removed; %d px of concave creases split the rest\n",
+              report.support_planes, report.support.empty() ? 0 : cv::countNonZero(report.support),
+              report.creases.empty() ? 0 : cv::countNonZero(report.creases));
+  std::printf("regions     %zu from %zu segments; %d solved, %d answers, %d suppressed; %d explain-away pass(es)\n",
+              report.proposals.size(), report.segmentation.segments.size(), report.solves, report.answers,
+              report.suppressed, report.explain_away_passes);
   for (size_t d = 0; d < detections.size(); ++d) {
     const g6d::Detection& detection = detections[d];
     const g6d::Proposal& proposal = report.proposals[static_cast<size_t>(detection.proposal)];
     std::printf("\nanswer %-4zu %s\n", d + 1, detection.object_id.c_str());
-    std::printf("region      #%d: box x %d y %d w %d h %d, %d px with depth, %zu segment(s), extent %.1f mm at %.3f m\n",
+    std::printf("region      #%d: box x %d y %d w %d h %d, %d px with depth, %zu segment(s), extent %.1f mm at %.3f m"
+                "%s\n",
                 detection.proposal, proposal.box.x, proposal.box.y, proposal.box.width, proposal.box.height,
-                proposal.pixels, proposal.segments.size(), proposal.extent_m * 1000.0, proposal.depth_m);
+                proposal.pixels, proposal.segments.size(), proposal.extent_m * 1000.0, proposal.depth_m,
+                proposal.pass > 0 ? (", explain-away pass " + std::to_string(proposal.pass)).c_str() : "");
     PrintPose(detection.result, "region (depth)");
   }
   std::printf("\n");
@@ -293,8 +297,8 @@ int RunFind(const g6d::Frame& frame, const std::vector<g6d::DetectRequest>& requ
       ++position;
       if (!trial.solved) continue;
       const g6d::Proposal& proposal = report.proposals[static_cast<size_t>(trial.proposal)];
-      std::printf("  #%-3d region %-4d box %d,%d %dx%d  %6d px  size %.2f colour %.2f rank %.3f  ", position,
-                  trial.proposal, proposal.box.x, proposal.box.y, proposal.box.width, proposal.box.height,
+      std::printf("  #%-3d pass %d region %-4d box %d,%d %dx%d  %6d px  size %.2f colour %.2f rank %.3f  ", position,
+                  trial.pass, trial.proposal, proposal.box.x, proposal.box.y, proposal.box.width, proposal.box.height,
                   proposal.pixels, trial.size_term, trial.colour_term, trial.rank);
       if (trial.success) std::printf("S %.4f region IoU %.2f", trial.score, trial.region_iou);
       std::printf("  %.1f ms  %s\n", trial.ms, TrialVerdict(trial, detections, detect_options).c_str());
@@ -321,6 +325,7 @@ int RunFind(const g6d::Frame& frame, const std::vector<g6d::DetectRequest>& requ
       nlohmann::json answer = PoseJson(detection.result, "depth");
       answer["object_id"] = detection.object_id;
       answer["region"] = {{"proposal", detection.proposal},
+                          {"pass", proposal.pass},
                           {"box", {proposal.box.x, proposal.box.y, proposal.box.width, proposal.box.height}},
                           {"pixels", proposal.pixels},
                           {"segments", proposal.segments.size()},
@@ -335,7 +340,8 @@ int RunFind(const g6d::Frame& frame, const std::vector<g6d::DetectRequest>& requ
       for (const g6d::Detection& detection : detections) found += detection.request == static_cast<int>(r);
       for (const g6d::CandidateTrial& trial : report.trials) {
         if (trial.request != static_cast<int>(r)) continue;
-        nlohmann::json entry = {{"position", ++position}, {"proposal", trial.proposal}, {"size_term", trial.size_term},
+        nlohmann::json entry = {{"position", ++position}, {"pass", trial.pass}, {"proposal", trial.proposal},
+                                {"size_term", trial.size_term},
                                 {"colour_term", trial.colour_term}, {"rank", trial.rank}, {"solved", trial.solved}};
         if (trial.solved) {
           entry["success"] = trial.success;
@@ -354,7 +360,9 @@ int RunFind(const g6d::Frame& frame, const std::vector<g6d::DetectRequest>& requ
     j["detection"] = {{"success", report.success},
                       {"support_planes", report.support_planes},
                       {"support_pixels", report.support.empty() ? 0 : cv::countNonZero(report.support)},
+                      {"creases_pixels", report.creases.empty() ? 0 : cv::countNonZero(report.creases)},
                       {"segments", report.segmentation.segments.size()},
+                      {"explain_away_passes", report.explain_away_passes},
                       {"regions", report.proposals.size()},
                       {"solves", report.solves},
                       {"answers", report.answers},
