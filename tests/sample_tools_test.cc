@@ -158,7 +158,7 @@ TEST(G6dEval, PerInstancePrintsEveryTargetWithItsErrorAndVerdict) {
 // A sample whose caches are fine enough to solve with (the fixture above has 12 views per
 // object, enough to draw with, too few to solve with), and g6d-solve's arguments for its
 // image 3 without a mask (seed 1: the three objects apart on the table; on the 12-image
-// sample 35 of the 36 objects are found within 0.1 d, the prism of image 1 is not).
+// sample all 36 objects are found within 0.1 d).
 struct SolveFixture {
   std::string root;
   BopDataset dataset;
