@@ -1,13 +1,20 @@
 // The tools around the demo, run on a small embedded sample: g6d-overlay, g6d-eval
-// --per-instance, and the per-estimate JSON lines of g6d-replay (EstimatesJsonLines).
+// --per-instance, g6d-solve without a mask (--find, --find-all), and the per-estimate JSON
+// lines of g6d-replay (EstimatesJsonLines).
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <limits>
+#include <set>
 #include <regex>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -15,6 +22,8 @@
 #include "core/se3.h"
 #include "eval/bop.h"
 #include "eval/bop_csv.h"
+#include "eval/metrics.h"
+#include "mesh/mesh.h"
 #include "process_util.h"
 #include "replay.h"
 #include "sample_test_util.h"
@@ -29,6 +38,7 @@ using Json = nlohmann::json;
 const std::string kMakeSample = test::BinaryDir() + "/tools/g6d-make-sample";
 const std::string kOverlay = test::BinaryDir() + "/tools/g6d-overlay";
 const std::string kEval = test::BinaryDir() + "/tools/g6d-eval";
+const std::string kSolve = test::BinaryDir() + "/tools/g6d-solve";
 
 // A 2-image sample and a results CSV holding its ground truth, except that the box of
 // image 1 is 5 cm off.
@@ -143,6 +153,185 @@ TEST(G6dEval, PerInstancePrintsEveryTargetWithItsErrorAndVerdict) {
   EXPECT_EQ(wrong, 1);
   // The 5 cm shift shows as 50 mm of ADD.
   EXPECT_THAT(run.output, HasSubstr("50.0"));
+}
+
+// A sample whose caches are fine enough to solve with (the fixture above has 12 views per
+// object, enough to draw with, too few to solve with), and g6d-solve's arguments for its
+// image 3 without a mask (seed 1: the three objects apart on the table; on the 12-image
+// sample all 36 objects are found within 0.1 d).
+struct SolveFixture {
+  std::string root;
+  BopDataset dataset;
+  BopFrame frame;
+  std::string command;  // g6d-solve --cache ... --rgb ... --depth ... --depth-scale ... --K ...
+
+  SolveFixture() {
+    root = test::ScratchDirs::Make("sample_tools_solve") + "/sample";
+    const test::CommandResult made =
+        test::RunCommand(kMakeSample + " --out " + root + " --frames 4 --seed 1 --no-log --threads 2");
+    EXPECT_EQ(made.exit_code, 0) << made.output;
+    dataset = LoadBopDataset(root);
+    frame = LoadBopScene(root, 1).Frame(3);
+    char image[16];
+    std::snprintf(image, sizeof(image), "%06d.png", frame.im_id);
+    std::ostringstream k;
+    k.precision(10);
+    k << frame.camera.fx << "," << frame.camera.fy << "," << frame.camera.cx << "," << frame.camera.cy;
+    std::ostringstream scale;
+    scale << frame.depth_scale;
+    command = kSolve + " --cache " + root + "/caches --rgb " + root + "/test/000001/rgb/" + image + " --depth " + root +
+              "/test/000001/depth/" + image + " --depth-scale " + scale.str() + " --K " + k.str() + " --threads 2";
+  }
+
+  std::string RgbPath() const {
+    char image[16];
+    std::snprintf(image, sizeof(image), "%06d.png", frame.im_id);
+    return root + "/test/000001/rgb/" + image;
+  }
+};
+
+const SolveFixture& SharedSolveFixture() {
+  static const SolveFixture fixture;
+  return fixture;
+}
+
+// ADD(-S) of an answer to the nearest ground-truth instance of its object, in diameters.
+double ErrorInDiameters(const BopDataset& dataset, const BopFrame& frame, int obj_id,
+                        const Eigen::Isometry3d& cam_from_object) {
+  const BopObjectInfo& info = dataset.objects.at(obj_id);
+  const Mesh mesh = LoadMesh(info.mesh_path, info.mesh_units);
+  std::vector<Eigen::Vector3f> points;
+  const size_t step = std::max<size_t>(1, mesh.vertices.size() / 2000);
+  for (size_t i = 0; i < mesh.vertices.size(); i += step) points.push_back(mesh.vertices[i]);
+  double best = std::numeric_limits<double>::infinity();
+  for (const BopGtInstance& gt : frame.gt) {
+    if (gt.obj_id != obj_id) continue;
+    best = std::min(best, info.IsSymmetric() ? ComputeAdds(cam_from_object, gt.cam_from_object, points)
+                                             : ComputeAdd(cam_from_object, gt.cam_from_object, points));
+  }
+  return best / info.diameter_m;
+}
+
+Eigen::Isometry3d PoseOf(const Json& answer) {
+  const Json& p = answer.at("position_m");
+  const Json& q = answer.at("orientation_wxyz");
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = Eigen::Quaterniond(q[0].get<double>(), q[1].get<double>(), q[2].get<double>(), q[3].get<double>())
+                      .normalized()
+                      .toRotationMatrix();
+  pose.translation() = Eigen::Vector3d(p[0].get<double>(), p[1].get<double>(), p[2].get<double>());
+  return pose;
+}
+
+// No mask, no box: every cache's object is found in the frame, each within 0.1 d of its
+// ground truth; the report and the JSON show how (support, segments, ranked and solved
+// candidates, stage times), and the overlay is the detection picture.
+TEST(G6dSolve, FindAllFindsEverySampleObjectWithoutAMask) {
+  ASSERT_TRUE(fs::exists(kSolve)) << kSolve << " is not built";
+  const SolveFixture& f = SharedSolveFixture();
+  ASSERT_EQ(f.frame.gt.size(), f.dataset.objects.size());  // one instance of each object
+  const std::string out = test::ScratchDirs::Make("sample_tools_find_all");
+  const test::CommandResult run =
+      test::RunCommand(f.command + " --find-all --overlay " + out + "/find.png --json " + out + "/find.json");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  for (const char* line : {"mode        find (no mask):", "support     ", "regions     ", "answer 1    obj_",
+                           "region      #", "S_A         ", "candidates  obj_000001: asked 1, found 1",
+                           "time (ms)   support "}) {
+    EXPECT_THAT(run.output, HasSubstr(line));
+  }
+  std::ifstream json_file(out + "/find.json");
+  const Json j = Json::parse(json_file);
+  EXPECT_EQ(j.at("mode"), "find");
+  EXPECT_TRUE(j.at("success").get<bool>());
+  const Json& answers = j.at("answers");
+  ASSERT_EQ(answers.size(), f.dataset.objects.size()) << run.output;
+  std::set<std::string> found;
+  for (const Json& answer : answers) {
+    const std::string id = answer.at("object_id");
+    found.insert(id);
+    const double error_d = ErrorInDiameters(f.dataset, f.frame, ParseBopObjectName(id), PoseOf(answer));
+    std::printf("%s: S_A %.4f, confidence %.3f, ADD(-S) %.4f d\n", id.c_str(), answer.at("score").get<double>(),
+                answer.at("confidence").get<double>(), error_d);
+    EXPECT_LT(error_d, 0.1) << id << "\n" << run.output;
+    EXPECT_TRUE(answer.at("success").get<bool>());
+    const Json& region = answer.at("region");
+    EXPECT_EQ(region.at("box").size(), 4u);
+    EXPECT_GT(region.at("pixels").get<int>(), 0);
+  }
+  EXPECT_EQ(found.size(), f.dataset.objects.size());
+  const Json& detection = j.at("detection");
+  EXPECT_GE(detection.at("support_planes").get<int>(), 1);  // the table
+  EXPECT_GT(detection.at("segments").get<int>(), 0);
+  EXPECT_GE(detection.at("solves").get<int>(), 3);
+  EXPECT_EQ(detection.at("answers").get<int>(), 3);
+  ASSERT_EQ(j.at("objects").size(), f.dataset.objects.size());
+  for (const Json& object : j.at("objects")) {
+    EXPECT_EQ(object.at("count"), 1);
+    EXPECT_EQ(object.at("found"), 1);
+    int answered = 0;
+    for (const Json& candidate : object.at("candidates")) {
+      answered += candidate.value("verdict", "").rfind("answer", 0) == 0;
+    }
+    EXPECT_EQ(answered, 1) << object.at("object_id");
+  }
+  for (const char* stage : {"support", "segment", "propose", "rank", "solve", "select", "total"}) {
+    EXPECT_GE(j.at("time_ms").at(stage).get<double>(), 0.0) << stage;
+  }
+  // The detection picture: the frame's size, not the plain image (support darkened,
+  // segments and regions outlined, the answers drawn).
+  const cv::Mat picture = cv::imread(out + "/find.png");
+  const cv::Mat plain = cv::imread(f.RgbPath());
+  ASSERT_FALSE(picture.empty());
+  ASSERT_EQ(picture.size(), plain.size());
+  cv::Mat difference;
+  cv::absdiff(picture, plain, difference);
+  cv::cvtColor(difference, difference, cv::COLOR_BGR2GRAY);
+  EXPECT_GT(cv::countNonZero(difference > 30), picture.total() / 10);
+  EXPECT_GT(CountColour(picture, cv::Vec3b(40, 255, 40), 40), 300);  // the answers' green contours
+}
+
+// --find OBJ:COUNT asks for one object only: the answer is of that object, and the one can
+// in the frame is one answer although two were allowed.
+TEST(G6dSolve, FindOneObjectWithACount) {
+  const SolveFixture& f = SharedSolveFixture();
+  const std::string out = test::ScratchDirs::Make("sample_tools_find_one");
+  const test::CommandResult run = test::RunCommand(f.command + " --find obj_000002:2 --json " + out + "/find.json");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_THAT(run.output, HasSubstr("find (no mask): obj_000002 x2"));
+  EXPECT_THAT(run.output, HasSubstr("candidates  obj_000002: asked 2, found 1;"));
+  std::ifstream json_file(out + "/find.json");
+  const Json j = Json::parse(json_file);
+  ASSERT_EQ(j.at("answers").size(), 1u) << run.output;
+  ASSERT_EQ(j.at("objects").size(), 1u);
+  EXPECT_EQ(j.at("objects")[0].at("found"), 1);
+  EXPECT_EQ(j.at("answers")[0].at("object_id"), "obj_000002");
+  const double error_d = ErrorInDiameters(f.dataset, f.frame, 2, PoseOf(j.at("answers")[0]));
+  EXPECT_LT(error_d, 0.1) << run.output;
+}
+
+// Contradictions and bad values: a clear message and exit code 2, before any solve.
+TEST(G6dSolve, FindArgumentErrors) {
+  const SolveFixture& f = SharedSolveFixture();
+  const std::string mask = f.root + "/test/000001/mask_visib/000003_000000.png";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {" --find obj_000001 --mask " + mask, "--find finds the objects without a mask: --mask cannot be given with it"},
+      {" --find-all --candidates all", "--find-all finds the objects without a mask: --candidates cannot be given"},
+      {" --find obj_000001 --find-all", "--find and --find-all contradict each other"},
+      {" --find obj_000001:0", "--find obj_000001:0: the count must be >= 1 (got 0)"},
+      {" --find obj_000001:two", "the count 'two' is not a whole number"},
+      {" --find obj_000099", "no cache given for object 'obj_000099' (the caches hold: obj_000001, obj_000002"},
+      {" --find obj_000001 --find obj_000001:2", "object 'obj_000001' is given twice"},
+      {" --find-all --detect-colour-weight 2", "--detect-colour-weight must be in [0, 1] (got 2)"},
+      {" --find-all --detect-extra -1", "--detect-extra must be >= 0 (got -1)"},
+      {"", "no mask: give --mask FILE (the object's pixels), or --find OBJ[:COUNT] / --find-all"},
+      {" --mask " + mask + " --candidates all --detect-extra 3", "--detect-extra needs --find or --find-all"},
+  };
+  for (const auto& [arguments, message] : cases) {
+    const test::CommandResult run = test::RunCommand(f.command + arguments);
+    EXPECT_EQ(run.exit_code, 2) << arguments << "\n" << run.output;
+    EXPECT_THAT(run.output, HasSubstr(message)) << arguments;
+    EXPECT_THAT(run.output, HasSubstr("g6d-solve: error: ")) << arguments;
+  }
 }
 
 pose_estimate_t Estimate(const std::string& object_id, int8_t status, double score) {
