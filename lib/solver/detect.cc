@@ -9,11 +9,11 @@
 #include <set>
 #include <sstream>
 
-#include <Eigen/Eigenvalues>
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
 #include "core/timer.h"
+#include "solver/plane.h"
 
 namespace g6d {
 
@@ -48,25 +48,8 @@ namespace {
 
 bool ValidDepth(float z) { return z > 0.0f && std::isfinite(z); }
 
-struct Plane {
-  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
-  double offset = 0.0;
-  double Distance(const Eigen::Vector3d& p) const { return normal.dot(p) + offset; }
-};
-
-// Least-squares plane through `points` (centroid and smallest principal axis).
-Plane FitPlaneTo(const std::vector<Eigen::Vector3d>& points) {
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3d& p : points) centroid += p;
-  centroid /= static_cast<double>(points.size());
-  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
-  for (const Eigen::Vector3d& p : points) scatter += (p - centroid) * (p - centroid).transpose();
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(scatter);
-  Plane plane;
-  plane.normal = eigen.eigenvectors().col(0).normalized();
-  plane.offset = -plane.normal.dot(centroid);
-  return plane;
-}
+using internal::FitPlane;
+using internal::Plane;
 
 // How far a depth point may lie from a plane and still be on it.
 class PlaneTolerance {
@@ -152,7 +135,7 @@ int FindSupport(const Frame& frame, const DetectOptions& options, double largest
     for (const Eigen::Vector3d& p : samples) {
       if (std::abs(best.Distance(p)) <= tolerance(p.z())) inlier_points.push_back(p);
     }
-    const Plane refit = FitPlaneTo(inlier_points);
+    const Plane refit = FitPlane(inlier_points);
     const Plane plane = count_inliers(refit) >= best_count ? refit : best;
     // Full-resolution inliers, split into connected parts; the parts larger than any object
     // are support.

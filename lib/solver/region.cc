@@ -6,11 +6,11 @@
 #include <sstream>
 #include <vector>
 
-#include <Eigen/Eigenvalues>
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
 #include "render/raster.h"
+#include "solver/plane.h"
 
 namespace g6d {
 
@@ -45,25 +45,8 @@ std::string RegionOptions::Check() const {
 
 namespace {
 
-struct Plane {
-  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
-  double offset = 0.0;
-  double Distance(const Eigen::Vector3d& p) const { return normal.dot(p) + offset; }
-};
-
-// Least-squares plane through `points` (their centroid and the smallest principal axis).
-Plane FitPlane(const std::vector<Eigen::Vector3d>& points) {
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3d& p : points) centroid += p;
-  centroid /= static_cast<double>(points.size());
-  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
-  for (const Eigen::Vector3d& p : points) scatter += (p - centroid) * (p - centroid).transpose();
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(scatter);
-  Plane plane;
-  plane.normal = eigen.eigenvectors().col(0).normalized();
-  plane.offset = -plane.normal.dot(centroid);
-  return plane;
-}
+using internal::FitPlane;
+using internal::Plane;
 
 // The dominant plane of `points` by RANSAC (inliers within `tolerance_m`), refitted to its
 // inliers; *inliers receives their count.
