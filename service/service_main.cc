@@ -119,6 +119,11 @@ int main(int argc, char** argv) {
   auto* label_map_option = app.add_option(
       "--label-map", label_map_file,
       "label map YAML for drake/bot_core input: labels: {<label value>: <object id>}");
+  std::vector<std::string> find_specs;
+  auto* find_option = app.add_option(
+      "--find", find_specs,
+      "drake/bot_core input: find this object in every frame without a mask, OBJ or OBJ:COUNT "
+      "(repeatable; the label image may then be absent)");
   auto* rigid = app.add_flag("--publish-rigid-transforms", flags.publish_rigid_transforms,
                              "also publish each OK pose as bot_core.rigid_transform_t on "
                              "<prefix><object id>");
@@ -254,6 +259,24 @@ int main(int argc, char** argv) {
     if (given(input_type_option)) options.input_type = g6d::ParseInputType(input_type);
     if (given(camera_option)) options.adapter.camera = g6d::LoadCameraYaml(camera_file);
     if (given(label_map_option)) options.adapter.label_objects = g6d::LoadLabelMapYaml(label_map_file);
+    if (given(find_option)) {
+      options.adapter.find_objects.clear();
+      for (const std::string& spec : find_specs) {
+        const size_t colon = spec.rfind(':');
+        const std::string id = colon == std::string::npos ? spec : spec.substr(0, colon);
+        int count = 1;
+        if (colon != std::string::npos) {
+          try {
+            size_t used = 0;
+            count = std::stoi(spec.substr(colon + 1), &used);
+            if (used != spec.size() - colon - 1) throw std::invalid_argument("trailing characters");
+          } catch (const std::exception&) {
+            G6D_THROW("--find " << spec << ": the count after ':' must be a whole number");
+          }
+        }
+        options.adapter.find_objects[id] = count;
+      }
+    }
   } catch (const g6d::Error& e) {
     spdlog::critical("{}", e.what());
     return 2;

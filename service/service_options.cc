@@ -171,6 +171,15 @@ void ParseServiceOptionsYaml(const std::string& text, const std::string& name,
                text << n;
                o.adapter.label_objects = ParseLabelMapYaml(text.c_str(), name + ": " + key);
              }},
+            {"find",
+             [&](const YAML::Node& n, const std::string& key) {
+               if (!n.IsMap()) G6D_THROW(name << ": key '" << key << "' must map object ids to counts");
+               o.adapter.find_objects.clear();
+               for (const auto& entry : n) {
+                 const std::string id = entry.first.as<std::string>();
+                 o.adapter.find_objects[id] = As<int>(entry.second, name, key + "." + id);
+               }
+             }},
             {"label_map_file",
              [&](const YAML::Node& n, const std::string& key) {
                o.adapter.label_objects = LoadLabelMapYaml(As<std::string>(n, name, key));

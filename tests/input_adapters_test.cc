@@ -369,6 +369,47 @@ TEST(ParseLabelMapYaml, MapsLabelsToObjectIds) {
   }
 }
 
+// A stack with no segmenter: no label image, objects to find in every frame.
+TEST(AdaptMessage, WithoutALabelImageTheObjectsToFindAreDetectionRequests) {
+  const Planes planes = MakePlanes();
+  drake::lcmt_image_array array = DrakeArray(planes, /*compress=*/true);
+  array.images.erase(array.images.begin());  // the LABEL image
+  array.num_images = 2;
+  const std::vector<uint8_t> bytes = Encode(array);
+  AdapterOptions options = TestOptions();
+  EXPECT_THROW(AdaptMessage(InputType::kDrake, bytes.data(), static_cast<int64_t>(bytes.size()), options, {}, -1),
+               Error);
+  options.label_objects.clear();
+  options.find_objects = {{"obj_000002", 3}};
+  const DecodedFrame decoded = DecodeFrame(
+      AdaptMessage(InputType::kDrake, bytes.data(), static_cast<int64_t>(bytes.size()), options, {}, -1));
+  ASSERT_EQ(decoded.instances.size(), 1u);
+  EXPECT_EQ(decoded.instances[0].object_id, "obj_000002");
+  EXPECT_EQ(decoded.instances[0].label, 0);
+  EXPECT_TRUE(decoded.instances[0].detect);
+  EXPECT_EQ(decoded.instances[0].count, 3);
+  EXPECT_EQ(decoded.instances[0].error, "");
+
+  // bot_core without its MASK_ZIPPED image, and with it: labelled instances plus the request.
+  bot_core::images_t images = BotImages(MillimetrePlanes(), true, true);
+  images.images.pop_back();
+  images.image_types.pop_back();
+  images.n_images = 2;
+  const std::vector<uint8_t> bot_bytes = Encode(images);
+  const DecodedFrame bot = DecodeFrame(
+      AdaptMessage(InputType::kBotCore, bot_bytes.data(), static_cast<int64_t>(bot_bytes.size()), options, {}, 0));
+  ASSERT_EQ(bot.instances.size(), 1u);
+  EXPECT_TRUE(bot.instances[0].detect);
+  options.label_objects = TestOptions().label_objects;
+  const std::vector<uint8_t> full = Encode(BotImages(MillimetrePlanes(), true, true));
+  const DecodedFrame both = DecodeFrame(
+      AdaptMessage(InputType::kBotCore, full.data(), static_cast<int64_t>(full.size()), options, {}, 0));
+  ASSERT_EQ(both.instances.size(), 3u);
+  EXPECT_EQ(both.instances[0].label, 1);
+  EXPECT_EQ(both.instances[1].label, 2);
+  EXPECT_TRUE(both.instances[2].detect);
+}
+
 TEST(AdapterOptions, CheckNamesTheMissingPiece) {
   AdapterOptions options;
   EXPECT_EQ(options.Check(InputType::kG6d), "");

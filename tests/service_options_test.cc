@@ -247,6 +247,13 @@ rigid_transform_prefix: POSE_
   EXPECT_EQ(bot.input_type, InputType::kBotCore);
   EXPECT_EQ(bot.adapter.camera.cx, 320.5);
   EXPECT_THAT(bot.Check(), testing::HasSubstr("needs a label map"));
+  // ... unless it has objects to find without a mask (a stack with no segmenter).
+  ParseServiceOptionsYaml("find: {obj_000005: 2, obj_000008: 1}\n", "find.yaml", &bot);
+  EXPECT_EQ(bot.adapter.find_objects, (std::map<std::string, int>{{"obj_000005", 2}, {"obj_000008", 1}}));
+  EXPECT_EQ(bot.Check(), "");
+  ParseServiceOptionsYaml("find: {obj_000005: 0}\n", "find.yaml", &bot);
+  EXPECT_THAT(bot.Check(), testing::HasSubstr("find: object obj_000005 has count 0"));
+  EXPECT_THROW(ParseServiceOptionsYaml("find: [obj_000005]\n", "find.yaml", &bot), Error);
 
   try {
     ParseServiceOptionsYaml("input_type: ros\n", "ros.yaml", &bot);

@@ -274,6 +274,14 @@ rgbd_frame_t MakeFrame(const cv::Mat& rgb, const cv::Mat& depth, const cv::Mat& 
     instance.gt_index = -1;
     frame.instances.push_back(instance);
   }
+  for (const auto& [object_id, count] : options.find_objects) {
+    instance_t instance{};  // label 0, no box: a detection request
+    instance.object_id = object_id;
+    instance.score = 1.0f;
+    instance.gt_index = -1;
+    instance.count = count;
+    frame.instances.push_back(instance);
+  }
   frame.num_instances = static_cast<int32_t>(frame.instances.size());
   return frame;
 }
@@ -418,7 +426,8 @@ rgbd_frame_t AdaptDrake(const void* data, int64_t size, const AdapterOptions& op
   const std::string among = " among the " + std::to_string(message.images.size()) + " images";
   if (color == nullptr) G6D_THROW("drake: no colour image (RGB, RGBA, BGR, BGRA or GRAY)" << among);
   if (depth == nullptr) G6D_THROW("drake: no DEPTH image" << among);
-  if (labels == nullptr) G6D_THROW("drake: no LABEL image (instance labels)" << among);
+  if (labels == nullptr && options.find_objects.empty())
+    G6D_THROW("drake: no LABEL image (instance labels)" << among << ", and no objects to find (find)");
 
   const std::string color_what =
       "drake: colour image (" + DrakePixelFormatName(color->pixel_format) + ")";
@@ -434,14 +443,16 @@ rgbd_frame_t AdaptDrake(const void* data, int64_t size, const AdapterOptions& op
                                                   << ", expected FLOAT32 (metres) or UINT16 (mm)");
   const cv::Mat depth_image = DecodeDrakeImage(*depth, limits, "drake: depth image");
 
-  if (labels->channel_type != lcmt_image::CHANNEL_TYPE_INT16 &&
-      labels->channel_type != lcmt_image::CHANNEL_TYPE_UINT16 &&
-      labels->channel_type != lcmt_image::CHANNEL_TYPE_UINT8)
-    G6D_THROW("drake: label image: channel_type " << int{labels->channel_type}
-                                                  << ", expected INT16, UINT16 or UINT8");
   std::vector<int32_t> present;
-  const cv::Mat mapped = MapLabels(DecodeDrakeImage(*labels, limits, "drake: label image"),
-                                   options.label_objects, &present);
+  cv::Mat mapped = cv::Mat::zeros(rgb.size(), CV_16U);  // no label image: only objects to find
+  if (labels != nullptr) {
+    if (labels->channel_type != lcmt_image::CHANNEL_TYPE_INT16 &&
+        labels->channel_type != lcmt_image::CHANNEL_TYPE_UINT16 &&
+        labels->channel_type != lcmt_image::CHANNEL_TYPE_UINT8)
+      G6D_THROW("drake: label image: channel_type " << int{labels->channel_type}
+                                                    << ", expected INT16, UINT16 or UINT8");
+    mapped = MapLabels(DecodeDrakeImage(*labels, limits, "drake: label image"), options.label_objects, &present);
+  }
 
   rgbd_frame_t frame = MakeFrame(rgb, depth_image, mapped, present, options, "drake");
   frame.utime = message.header.utime;
@@ -594,12 +605,14 @@ rgbd_frame_t AdaptBotCore(const void* data, int64_t size, const AdapterOptions& 
   const std::string among = " among the " + std::to_string(message.images.size()) + " images";
   if (color == nullptr) G6D_THROW("bot_core: no LEFT (colour) image" << among);
   if (depth == nullptr) G6D_THROW("bot_core: no DEPTH_MM or DEPTH_MM_ZIPPED image" << among);
-  if (mask == nullptr) G6D_THROW("bot_core: no MASK_ZIPPED image (instance labels)" << among);
+  if (mask == nullptr && options.find_objects.empty())
+    G6D_THROW("bot_core: no MASK_ZIPPED image (instance labels)" << among << ", and no objects to find (find)");
 
   const cv::Mat rgb = DecodeBotColor(*color, limits);
   const cv::Mat depth_mm = DecodeBotDepth(*depth, depth_zipped, limits);
   std::vector<int32_t> present;
-  const cv::Mat mapped = MapLabels(DecodeBotMask(*mask, limits), options.label_objects, &present);
+  const cv::Mat mapped = mask != nullptr ? MapLabels(DecodeBotMask(*mask, limits), options.label_objects, &present)
+                                         : cv::Mat(cv::Mat::zeros(rgb.size(), CV_16U));
   rgbd_frame_t frame = MakeFrame(rgb, depth_mm, mapped, present, options, "bot_core");
   frame.utime = message.utime;
   frame.seq = seq;
@@ -668,9 +681,16 @@ std::string AdapterOptions::Check(InputType type) const {
   else if (camera.width < 1 || camera.height < 1)
     out << "camera: width and height must be >= 1 (got " << camera.width << "x" << camera.height
         << ")";
-  else if (label_objects.empty())
+  else if (label_objects.empty() && find_objects.empty())
     out << "labels: the " << InputTypeName(type)
-        << " input needs a label map (label value -> object id)";
+        << " input needs a label map (label value -> object id) or objects to find (find)";
+  for (const auto& [object_id, count] : find_objects) {
+    if (!out.str().empty()) break;
+    if (object_id.empty())
+      out << "find: an empty object id";
+    else if (count < 1)
+      out << "find: object " << object_id << " has count " << count << " (must be >= 1)";
+  }
   for (const auto& [label, object_id] : label_objects) {
     if (!out.str().empty()) break;
     if (label <= 0 || label > 65535)

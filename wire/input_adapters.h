@@ -17,6 +17,8 @@
 /// Neither foreign type carries the intrinsics or which label is which object: an
 /// AdapterOptions holds them (the service reads them from YAML). Label values the label
 /// map does not name are background; a named label with pixels becomes one instance.
+/// Objects to find (AdapterOptions::find_objects) become detection requests in every
+/// frame, and then the label image is optional.
 ///
 /// Errors. Everything here throws g6d::Error with a message that starts with the input
 /// type and says which image and what was expected ("drake: depth image: zlib data is
@@ -51,6 +53,10 @@ struct AdapterOptions {
   std::map<int32_t, std::string> label_objects;
   /// camera_id echoed in answers; empty = Drake's frame name, or "bot_core".
   std::string camera_id;
+  /// Object id -> count: every frame also asks the service to find these objects with no
+  /// mask (a detection request per object, instance_t.count = the count). With objects to
+  /// find, the label / mask image may be absent (a stack without a segmenter).
+  std::map<std::string, int> find_objects;
 
   /// Empty when valid for `type`, else names the bad field.
   std::string Check(InputType type) const;
