@@ -182,6 +182,40 @@ TEST_F(ServiceDetectTest, BoxIsFoundWithoutAMaskAndThenTracked) {
   EXPECT_EQ(service_->Counters().answers_tracked, 1);
 }
 
+// A track lost in a frame without masks (the box turned by 90 degrees between two frames, as
+// when a robot picks it up and puts it back): the track's try is refused, detection runs and
+// finds the box near the track's last position, which continues the same track re-detected.
+TEST_F(ServiceDetectTest, ALostTrackFallsBackToDetectionNearIt) {
+  StartService("detect_lost");
+  const Eigen::Isometry3d first = BoxPose();
+  Eigen::Isometry3d turned = first;
+  turned.linear() = first.linear() * Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  turned.translation() += Eigen::Vector3d(0.01, 0.0, 0.0);
+  int track_id = -1;
+  const Eigen::Isometry3d poses[2] = {first, turned};
+  for (int k = 0; k < 2; ++k) {
+    SCOPED_TRACE("frame " + std::to_string(k));
+    rgbd_frame_t frame = WithRequests(test::MakeRgbdFrame(Render(poses[k], 81 + static_cast<uint64_t>(k)), 80 + k,
+                                                          test::kBoxId),
+                                      {DetectionRequest(test::kBoxId, 1)});
+    frame.utime = 1700000000000000 + k * 33000;
+    const pose_array_t answer = Answer(frame);
+    ASSERT_EQ(answer.num_estimates, 1);
+    const pose_estimate_t& box = answer.estimates[0];
+    ASSERT_EQ(box.status, +pose_estimate_t::STATUS_OK) << box.message;
+    EXPECT_TRUE(box.found_without_mask);
+    EXPECT_LT(ComputeAdd(test::PoseOf(box), poses[k], scene_->mesh.vertices), 0.1 * scene_->bank.diameter_m)
+        << "S_A " << box.score << ", mode " << EstimateModeName(box.mode);
+    if (k == 0) {
+      EXPECT_EQ(box.mode, +pose_estimate_t::MODE_DETECTED);
+      track_id = box.track_id;
+    } else {
+      EXPECT_EQ(box.mode, +pose_estimate_t::MODE_REDETECTED);
+      EXPECT_EQ(box.track_id, track_id);
+    }
+  }
+}
+
 TEST_F(ServiceDetectTest, AbsentObjectGetsExactlyOneNoSolution) {
   StartService("detect_absent");
   test::SyntheticView view = Render(BoxPose(), 71);
