@@ -235,6 +235,15 @@ void ParseServiceOptionsYaml(const std::string& text, const std::string& name,
                          {"max_periodic_per_frame", int_field(&o.tracking.max_periodic_per_frame)},
                          {"constant_velocity", bool_field(&o.tracking.constant_velocity)},
                          {"background_redetect", bool_field(&o.tracking.background_redetect)}});
+             }},
+            {"detect", [&](const YAML::Node& n, const std::string& key) {
+               ApplyMap(n, name, key,
+                        {{"extra_candidates", int_field(&o.detect.extra_candidates)},
+                         {"colour_weight", double_field(&o.detect.colour_weight)},
+                         {"max_score", double_field(&o.detect.max_score)},
+                         {"explain_away_passes", int_field(&o.detect.explain_away_passes)},
+                         {"max_planes", int_field(&o.detect.max_planes)},
+                         {"support_extent_factor", double_field(&o.detect.support_extent_factor)}});
              }}});
 }
 

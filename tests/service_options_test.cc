@@ -213,6 +213,25 @@ TEST(LoadServiceOptionsYaml, ReadsAFileAndNamesAMissingOne) {
 }
 
 // Drake / bot_core input and the rigid transform output from YAML (issue 15).
+TEST(ParseServiceOptionsYaml, ReadsTheDetectionKeysAndCheckNamesABadOne) {
+  ServiceOptions options;
+  options.templates_dir = "caches";
+  ParseServiceOptionsYaml(
+      "detect: {extra_candidates: 2, colour_weight: 0.25, max_score: 0.3, explain_away_passes: 0, "
+      "max_planes: 2, support_extent_factor: 2.0}\n",
+      "detect.yaml", &options);
+  EXPECT_EQ(options.detect.extra_candidates, 2);
+  EXPECT_EQ(options.detect.colour_weight, 0.25);
+  EXPECT_EQ(options.detect.max_score, 0.3);
+  EXPECT_EQ(options.detect.explain_away_passes, 0);
+  EXPECT_EQ(options.detect.max_planes, 2);
+  EXPECT_EQ(options.detect.support_extent_factor, 2.0);
+  EXPECT_EQ(options.Check(), "");
+  ParseServiceOptionsYaml("detect: {extra_candidates: -1}\n", "detect.yaml", &options);
+  EXPECT_THAT(options.Check(), testing::HasSubstr("extra_candidates"));
+  EXPECT_THROW(ParseServiceOptionsYaml("detect: {candidates: 3}\n", "detect.yaml", &options), Error);
+}
+
 TEST(ParseServiceOptionsYaml, ReadsTheInputAdapterKeys) {
   ServiceOptions options;
   options.templates_dir = "caches";
