@@ -106,30 +106,15 @@ int FindSupport(const Frame& frame, const DetectOptions& options, double largest
   std::mt19937_64 random(1);
   int planes = 0;
   for (int round = 0; round < options.max_planes && samples.size() >= 3; ++round) {
-    std::uniform_int_distribution<size_t> pick(0, samples.size() - 1);
     auto count_inliers = [&](const Plane& plane) {
       int count = 0;
       for (const Eigen::Vector3d& p : samples) count += std::abs(plane.Distance(p)) <= tolerance(p.z());
       return count;
     };
-    Plane best;
     int best_count = -1;
-    for (int iteration = 0; iteration < options.plane_iterations; ++iteration) {
-      const Eigen::Vector3d& a = samples[pick(random)];
-      const Eigen::Vector3d& b = samples[pick(random)];
-      const Eigen::Vector3d& c = samples[pick(random)];
-      const Eigen::Vector3d normal = (b - a).cross(c - a);
-      const double length = normal.norm();
-      if (!(length > 1e-12)) continue;
-      Plane plane;
-      plane.normal = normal / length;
-      plane.offset = -plane.normal.dot(a);
-      const int count = count_inliers(plane);
-      if (count > best_count) {
-        best_count = count;
-        best = plane;
-      }
-    }
+    const Plane best = internal::RansacPlane(
+        samples, options.plane_iterations, [&](const Eigen::Vector3d& p) { return tolerance(p.z()); }, &random,
+        &best_count);
     if (best_count < std::max(3.0, options.min_plane_fraction * static_cast<double>(total_samples))) break;
     std::vector<Eigen::Vector3d> inlier_points;
     for (const Eigen::Vector3d& p : samples) {

@@ -53,26 +53,9 @@ using internal::Plane;
 Plane DominantPlane(const std::vector<Eigen::Vector3d>& points, double tolerance_m, const RegionOptions& options,
                     int* inliers) {
   std::mt19937_64 random(options.seed);
-  std::uniform_int_distribution<size_t> pick(0, points.size() - 1);
-  Plane best;
   int best_count = -1;
-  for (int iteration = 0; iteration < options.plane_iterations; ++iteration) {
-    const Eigen::Vector3d& a = points[pick(random)];
-    const Eigen::Vector3d& b = points[pick(random)];
-    const Eigen::Vector3d& c = points[pick(random)];
-    const Eigen::Vector3d normal = (b - a).cross(c - a);
-    const double length = normal.norm();
-    if (!(length > 1e-12)) continue;
-    Plane plane;
-    plane.normal = normal / length;
-    plane.offset = -plane.normal.dot(a);
-    int count = 0;
-    for (const Eigen::Vector3d& p : points) count += std::abs(plane.Distance(p)) <= tolerance_m;
-    if (count > best_count) {
-      best_count = count;
-      best = plane;
-    }
-  }
+  const Plane best = internal::RansacPlane(
+      points, options.plane_iterations, [&](const Eigen::Vector3d&) { return tolerance_m; }, &random, &best_count);
   if (best_count < 3) {
     *inliers = 0;
     return best;
