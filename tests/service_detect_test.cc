@@ -51,20 +51,8 @@ rgbd_frame_t WithRequests(rgbd_frame_t frame, const std::vector<instance_t>& ins
   return frame;
 }
 
-// The box 0.6 m ahead, and its step between consecutive frames of a 30 Hz camera.
-Eigen::Isometry3d BoxPose() {
-  return MakePose(
-      Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.3, 1.0, 0.2).normalized()).toRotationMatrix(),
-      {-0.06, 0.0, 0.6});
-}
-Eigen::Isometry3d SmallStep(const Eigen::Isometry3d& pose) {
-  Eigen::Isometry3d moved = pose;
-  moved.linear() = Eigen::AngleAxisd(M_PI / 180.0, Eigen::Vector3d(0.2, 1.0, 0.1).normalized())
-                       .toRotationMatrix() *
-                   pose.linear();
-  moved.translation() += Eigen::Vector3d(0.002, 0.0, 0.0);
-  return moved;
-}
+using test::BoxPose;
+using test::SmallStep;
 
 class ServiceDetectTest : public ::testing::Test {
  protected:

@@ -464,17 +464,8 @@ Eigen::Isometry3d Moved(const Eigen::Isometry3d& pose, const Eigen::Vector3d& tr
   return moved;
 }
 
-// The box 0.6 m ahead, left of the image centre, seen from a textured side.
-Eigen::Isometry3d BoxPose() {
-  return MakePose(
-      Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.3, 1.0, 0.2).normalized()).toRotationMatrix(),
-      {-0.06, 0.0, 0.6});
-}
-
-// The step between consecutive frames of a moving box: 2 mm and 1 degree.
-Eigen::Isometry3d SmallStep(const Eigen::Isometry3d& pose) {
-  return Moved(pose, {0.002, 0.0, 0.0}, 1.0 * M_PI / 180.0, {0.2, 1.0, 0.1});
-}
+using test::BoxPose;
+using test::SmallStep;
 
 // One frame of `view` at `utime`.
 rgbd_frame_t FrameAt(const test::SyntheticView& view, int64_t seq, int64_t utime) {

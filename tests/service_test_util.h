@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "core/executor.h"
+#include "core/se3.h"
 #include "g6d/pose_array_t.hpp"
 #include "g6d/rgbd_frame_t.hpp"
 #include "g6d/service_status_t.hpp"
@@ -32,6 +33,24 @@
 #include "wire/synthetic_frame.h"
 
 namespace g6d::test {
+
+/// The service tests' box pose: 0.6 m ahead, left of the image centre, a textured side seen.
+inline Eigen::Isometry3d BoxPose() {
+  return MakePose(
+      Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.3, 1.0, 0.2).normalized()).toRotationMatrix(),
+      {-0.06, 0.0, 0.6});
+}
+
+/// The step between consecutive frames of a 30 Hz camera watching the box move: 2 mm along
+/// x and 1 degree about (0.2, 1, 0.1).
+inline Eigen::Isometry3d SmallStep(const Eigen::Isometry3d& pose) {
+  Eigen::Isometry3d moved = pose;
+  moved.linear() = Eigen::AngleAxisd(M_PI / 180.0, Eigen::Vector3d(0.2, 1.0, 0.1).normalized())
+                       .toRotationMatrix() *
+                   pose.linear();
+  moved.translation() += Eigen::Vector3d(0.002, 0.0, 0.0);
+  return moved;
+}
 
 // The shared generators keep their test:: names in the tests.
 using namespace g6d::synthetic;  // NOLINT(build/namespaces)
