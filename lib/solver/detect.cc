@@ -267,6 +267,19 @@ cv::Mat FilledRegionMask(const cv::Mat& labels, const cv::Mat& support, const Pr
   return mask;
 }
 
+// The region's pixels (with depth: its segments') where `within` is set.
+int PixelsInside(const cv::Mat& labels, const Proposal& proposal, const cv::Mat& within) {
+  int inside = 0;
+  for (int v = proposal.box.y; v < proposal.box.y + proposal.box.height; ++v) {
+    const int* l = labels.ptr<int>(v);
+    const uint8_t* w = within.ptr<uint8_t>(v);
+    for (int u = proposal.box.x; u < proposal.box.x + proposal.box.width; ++u) {
+      inside += w[u] && l[u] > 0 && std::binary_search(proposal.segments.begin(), proposal.segments.end(), l[u]);
+    }
+  }
+  return inside;
+}
+
 // Pixels the two regions share (they share whole segments).
 int SharedPixels(const Proposal& a, const Proposal& b, const std::vector<DepthSegment>& segments) {
   int shared = 0;
@@ -387,6 +400,12 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
   for (size_t r = 0; r < requests.size(); ++r) {
     if (requests[r].bank == nullptr) G6D_THROW("DetectObjects: request " << r << " has no template bank");
     if (requests[r].count < 1) G6D_THROW("DetectObjects: request " << r << " (" << requests[r].bank->object_id << ") asks for " << requests[r].count << " instances (must be >= 1)");
+    const cv::Mat& within = requests[r].within;
+    if (!within.empty() && (within.type() != CV_8U || within.size() != frame.depth.size())) {
+      G6D_THROW("DetectObjects: request " << r << " (" << requests[r].bank->object_id
+                << ")'s `within` must be CV_8U of the frame's size (got type " << within.type() << ", "
+                << within.cols << "x" << within.rows << ", frame " << frame.depth.cols << "x" << frame.depth.rows << ")");
+    }
   }
   const std::string bad = options.Check();
   if (!bad.empty()) G6D_THROW(bad);
@@ -411,7 +430,32 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
   auto allowance_m = [&](double z) { return 2.0 * (noise * z * z + options.extent_margin_px * z / focal); };
   SolverOptions solve_options = solver_options;
   solve_options.mask_trust = MaskTrust::kDepth;
-  const cv::Mat first_region = out.support == 0;
+  solve_options.region_candidates = 0;  // a region of the depth is solved as it is
+  cv::Mat first_region = out.support == 0;
+  // Requests that all say where their object is: only the area around their `within`
+  // (grown by its longer side, so that a region the object continues beyond it stays
+  // whole) is segmented.
+  std::vector<int> within_pixels(requests.size(), 0);  // pixels with depth inside `within`
+  bool all_within = true;
+  cv::Rect within_area;
+  for (size_t r = 0; r < requests.size(); ++r) {
+    const cv::Mat& within = requests[r].within;
+    all_within = all_within && !within.empty();
+    if (within.empty()) continue;
+    const cv::Rect box = cv::boundingRect(within);
+    const int grow = std::max(box.width, box.height);
+    within_area |= cv::Rect(box.x - grow, box.y - grow, box.width + 2 * grow, box.height + 2 * grow);
+    for (int v = box.y; v < box.y + box.height; ++v) {
+      const uint8_t* w = within.ptr<uint8_t>(v);
+      const float* d = frame.depth.ptr<float>(v);
+      for (int u = box.x; u < box.x + box.width; ++u) within_pixels[r] += w[u] && ValidDepth(d[u]);
+    }
+  }
+  if (all_within) {
+    cv::Mat area = cv::Mat::zeros(first_region.size(), CV_8U);
+    area(within_area & cv::Rect(0, 0, area.cols, area.rows)).setTo(255);
+    first_region &= area;
+  }
   std::vector<Detection> solved;
   std::vector<int> wanted(requests.size());
   for (size_t r = 0; r < requests.size(); ++r) wanted[r] = requests[r].count;
@@ -492,6 +536,10 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
           if (proposal.extent_m < options.min_extent_fraction * d) continue;
           const double whole_px = focal * d / proposal.depth_m;
           if (proposal.pixels < options.min_area_fraction * whole_px * whole_px * M_PI / 8.0) continue;
+          if (!requests[r].within.empty() &&
+              2 * PixelsInside(segmentation.labels, proposal, requests[r].within) < std::min(proposal.pixels, within_pixels[r])) {
+            continue;
+          }
           CandidateTrial trial;
           trial.request = static_cast<int>(r);
           trial.proposal = static_cast<int>(p);

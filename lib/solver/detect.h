@@ -42,6 +42,12 @@ struct DetectRequest {
   /// Where the object was last seen (camera frame, metres), e.g. a lost track's last pose:
   /// candidates within the object's diameter of it are solved first. Unset = NaN.
   Eigen::Vector3d near_point_m = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  /// Where the object is known to be, e.g. a segmenter's mask or a detector's box that may
+  /// hold more than the object (CV_8U, frame size, non-zero = inside; empty = anywhere):
+  /// only regions formed from the depth inside it that share at least half of the smaller
+  /// of the two (the region, the pixels with depth inside it) are its candidates. Frames
+  /// whose every request has one are segmented inside their union only.
+  cv::Mat within;
 };
 
 /// Options of DetectObjects().

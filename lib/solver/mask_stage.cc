@@ -107,16 +107,19 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
   };
   // The search leaves out what the depth cannot judge at the mask's edge.
   observation->search_regions.push_back(search_region(unsure.empty() ? mask : mask & ~unsure, observation->z_m));
-  if (by_segment && options.max_search_regions > 0 && segments.segments.size() >= 2) {
-    // A region wider than the object can reach holds more than the object: its large
-    // segments that the object could be are searched alone too.
+  int total = 0;
+  if (by_segment && !segments.segments.empty()) {
+    // A region wider than the object can reach holds more than the object.
     Spans all = segments.segments.front().spans;
-    int total = 0;
     for (const DepthSegment& segment : segments.segments) {
       all = all.Union(segment.spans);
       total += segment.pixels;
     }
-    if (all.Extent() > observation->score.max_object_extent_m) {
+    observation->wider_than_object = all.Extent() > observation->score.max_object_extent_m;
+  }
+  if (by_segment && options.max_search_regions > 0 && segments.segments.size() >= 2) {
+    // Its large segments that the object could be are searched alone too.
+    if (observation->wider_than_object) {
       for (size_t k = 0; k < segments.segments.size(); ++k) {
         const DepthSegment& segment = segments.segments[k];
         if (static_cast<int>(observation->search_regions.size()) > options.max_search_regions) break;

@@ -44,6 +44,9 @@ struct Observation {
     double z_m = 0.0;
   };
   std::vector<SearchRegion> search_regions;
+  // kDepth: the region's depth points span more than the object can reach (a merged mask, a
+  // box over neighbours): it holds more than the object.
+  bool wider_than_object = false;
   ScoreOptions score;        // options.score with this instance's depth evidence
   std::unique_ptr<PointCloudIndex> observed;  // Y: observed points inside the mask
   EvaluationGrid selection_grid, refine_grid;

@@ -12,6 +12,7 @@
 #include "core/error.h"
 #include "core/timer.h"
 #include "render/raster.h"
+#include "solver/depth_regions.h"
 #include "solver/mask_stage.h"
 #include "templates/crop.h"
 
@@ -32,6 +33,8 @@ std::string SolverOptions::Check() const {
   if (!bad.empty()) return bad;
   std::ostringstream out;
   if (num_hypotheses < 1) out << "SolverOptions.num_hypotheses must be >= 1 (got " << num_hypotheses << ")";
+  else if (region_candidates < 0 || region_candidates > 16) out << "SolverOptions.region_candidates must be in [0, 16] (got " << region_candidates << ")";
+  else if (!(region_search_confidence >= 0.0 && region_search_confidence <= 1.0)) out << "SolverOptions.region_search_confidence must be in [0, 1] (got " << region_search_confidence << ")";
   else if (max_search_regions < 0 || max_search_regions > 8) out << "SolverOptions.max_search_regions must be in [0, 8] (got " << max_search_regions << ")";
   else if (max_observed_points < 10) out << "SolverOptions.max_observed_points must be >= 10 (got " << max_observed_points << ")";
   else if (max_source_points < 10) out << "SolverOptions.max_source_points must be >= 10 (got " << max_source_points << ")";
@@ -68,7 +71,7 @@ std::vector<StageTime> StageTimes(const StageReport& s) {
   return {{"prepare", s.prepare_ms},     {"features", s.features_ms},       {"match", s.match_ms},
           {"pnp", s.pnp_ms},             {"observable", s.observable_ms},   {"icp", s.icp_ms},
           {"mhpo", s.mhpo_ms},           {"post_refine", s.post_refine_ms}, {"finalists", s.finalists_ms},
-          {"mask_refine", s.mask_refine_ms}, {"total", s.total_ms}};
+          {"mask_refine", s.mask_refine_ms}, {"depth_regions", s.depth_regions_ms}, {"total", s.total_ms}};
 }
 
 double ConfidenceFromScore(const SolverOptions& options, double score, bool ambiguous) {
@@ -537,6 +540,7 @@ void ReportObservation(const Observation& observation, PoseResult* result) {
   stages.mask_far_leak = observation.region.far_leak;
   stages.support_plane = observation.region.has_plane;
   stages.surface_tolerance_m = observation.region.surface_tolerance_m;
+  stages.mask_wider_than_object = observation.wider_than_object;
 }
 
 // The context of one solve: the score options per mesh (back faces culled only on closed
@@ -778,8 +782,11 @@ PoseScore ScoreInstancePose(const Frame& frame, const Instance& instance, const 
                    &scratch);
 }
 
-PoseResult EstimatePose(const Frame& frame, const Instance& instance, const TemplateBank& bank,
-                        const SolverOptions& options, Executor* executor) {
+namespace {
+
+// The solve on the caller's mask (the paper's pipeline, the mask read as evidence).
+PoseResult EstimatePoseOnMask(const Frame& frame, const Instance& instance, const TemplateBank& bank,
+                              const SolverOptions& options, Executor* executor) {
   PoseResult result;
   StageReport& stages = result.stages;
   const Stopwatch total;
@@ -821,6 +828,19 @@ PoseResult EstimatePose(const Frame& frame, const Instance& instance, const Temp
     // Library code reports bad data through the result; an exception here is a bug or
     // an unexpected input that a lower layer refused. It must not escape to the caller.
     return fail(Termination::kBadInput, std::string("internal error: ") + e.what());
+  }
+}
+
+}  // namespace
+
+PoseResult EstimatePose(const Frame& frame, const Instance& instance, const TemplateBank& bank,
+                        const SolverOptions& options, Executor* executor) {
+  PoseResult on_mask = EstimatePoseOnMask(frame, instance, bank, options, executor);
+  try {
+    return SolveOnDepthRegions(frame, instance, bank, options, executor, on_mask);  // depth_regions.h
+  } catch (const std::exception& e) {
+    // A lower layer refused what the mask's solve took: its answer stands.
+    return on_mask;
   }
 }
 

@@ -60,6 +60,19 @@ struct SolverOptions {
   /// largest segments within the object's reach, at most this many; the hypotheses are
   /// pooled. 0 = the whole region only.
   int max_search_regions = 2;
+  /// The depth's own regions when the mask holds more than the object (kDepth): when the
+  /// mask's depth spans more than the object can reach (merged with a touching neighbour, a
+  /// box over neighbours), the regions the depth forms inside it (DetectObjects' proposals:
+  /// depth steps and concave creases, and unions of them that fit the object, ranked by
+  /// size and colour, detect.h) are solved too, the best `region_candidates` of them, each
+  /// as a mask of its own, and the answer with the lowest S_A wins. Objects that touch at
+  /// the same depth form one segment that ownership cannot split; the creases can. 0 = off.
+  int region_candidates = 2;
+  /// ... and also when the mask's answer is unsure: its confidence (the calibration below)
+  /// is under this (0.5: the answer is more likely wrong than right). A box or a mask that
+  /// missed most of the object can hold the object's region whole without spanning more
+  /// than it. 0 = only for masks wider than the object.
+  double region_search_confidence = 0.5;
   /// The mask refined with the pose (kDepth): after the solve, ICP + MHPO from T_A on the
   /// mask T_A implies (CorrectedMask), accepted when S with the caller's mask as evidence
   /// is lower; repeated while it improves, at most this many times (0 = off).
@@ -211,12 +224,20 @@ struct StageReport {
   int mask_far_leak = 0;
   bool support_plane = false;
   double surface_tolerance_m = 0.0;
+  /// The region's depth spans more than the object can reach (kDepth): the mask holds more
+  /// than the object (merged with a neighbour, a box).
+  bool mask_wider_than_object = false;
+  /// The depth's own regions solved in its place (SolverOptions::region_candidates), and
+  /// whether one of them gave T_A (then `region` of the answer is that region).
+  int depth_regions_solved = 0;
+  bool depth_region_chosen = false;
+  double mask_answer_score = 2.0;  ///< S_A of the answer on the mask itself, before the regions
   double best_quality = 0.0;       ///< best Q_j
   double best_e_obs = 1.0;         ///< best E_obs among PnP poses
   double best_s_after_icp = 2.0;   ///< best S after ICP
   double prepare_ms = 0.0, features_ms = 0.0, match_ms = 0.0, pnp_ms = 0.0,
          observable_ms = 0.0, icp_ms = 0.0, mhpo_ms = 0.0, post_refine_ms = 0.0, finalists_ms = 0.0,
-         mask_refine_ms = 0.0, total_ms = 0.0;
+         mask_refine_ms = 0.0, depth_regions_ms = 0.0, total_ms = 0.0;
   int distinct_finalists = 0;         ///< finalists left after merging poses equal modulo symmetry
   int appearance_compared = 0;        ///< finalists whose appearance was scored
   bool appearance_changed = false;    ///< appearance replaced the lowest-S pose as T_A

@@ -1,0 +1,77 @@
+#include "solver/depth_regions.h"
+
+#include <utility>
+
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "core/timer.h"
+#include "solver/detect.h"
+#include "solver/region.h"
+
+namespace g6d {
+
+PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, const TemplateBank& bank,
+                               const SolverOptions& options, Executor* executor, PoseResult on_mask) {
+  const bool unsure = !on_mask.success || on_mask.confidence < options.region_search_confidence;
+  // A mask with too few pixels with depth (an eroded sliver) still says where the object
+  // is; a mask of the wrong size or type says nothing, and a bad frame none of the regions
+  // can use either (its message stays the answer's).
+  const bool usable = instance.mask.size() == frame.depth.size() && instance.mask.type() == CV_8U &&
+                      frame.rgb.size() == frame.depth.size() && cv::countNonZero(instance.mask) > 0;
+  if (options.mask_trust != MaskTrust::kDepth || options.region_candidates <= 0 || on_mask.cut_short || !usable ||
+      !(on_mask.stages.mask_wider_than_object || unsure)) {
+    return on_mask;
+  }
+  const Stopwatch watch;
+  DetectRequest request;
+  request.bank = &bank;
+  request.count = 1;
+  request.within = instance.mask > 0;
+  DetectOptions detect;
+  detect.extra_candidates = options.region_candidates - 1;
+  detect.explain_away_passes = 0;
+  detect.max_score = 1e9;  // the best region's answer is compared with the mask's, whatever its S_A
+  SolverOptions region_options = options;
+  region_options.region_candidates = 0;  // a region of the depth holds one object
+  DetectionReport report;
+  std::vector<Detection> found = DetectObjects(frame, {request}, region_options, detect, executor, &report);
+  StageReport stages = on_mask.stages;
+  stages.mask_answer_score = on_mask.success ? on_mask.score : 2.0;
+  stages.depth_regions_solved = report.solves;
+  stages.depth_regions_ms = watch.ElapsedMs();
+  stages.total_ms += stages.depth_regions_ms;
+  if (!found.empty() && found.front().result.success &&
+      (!on_mask.success || found.front().result.score < on_mask.score)) {
+    PoseResult chosen = std::move(found.front().result);
+    // The answer's stage counts and poses are its own solve's; the times are of the work
+    // this instance cost: the solve on the mask, then the regions.
+    const StageReport& own = chosen.stages;
+    StageReport merged = own;
+    merged.prepare_ms = stages.prepare_ms;
+    merged.features_ms = stages.features_ms;
+    merged.match_ms = stages.match_ms;
+    merged.pnp_ms = stages.pnp_ms;
+    merged.observable_ms = stages.observable_ms;
+    merged.icp_ms = stages.icp_ms;
+    merged.mhpo_ms = stages.mhpo_ms;
+    merged.post_refine_ms = stages.post_refine_ms;
+    merged.finalists_ms = stages.finalists_ms;
+    merged.mask_refine_ms = stages.mask_refine_ms;
+    merged.depth_regions_ms = stages.depth_regions_ms;
+    merged.total_ms = stages.total_ms;
+    merged.mask_given_pixels = stages.mask_given_pixels;
+    merged.mask_wider_than_object = stages.mask_wider_than_object;
+    merged.depth_regions_solved = stages.depth_regions_solved;
+    merged.depth_region_chosen = true;
+    merged.mask_answer_score = stages.mask_answer_score;
+    chosen.stages = std::move(merged);
+    chosen.truncated = chosen.truncated || on_mask.truncated;
+    chosen.mask_iou = MaskIntersectionOverUnion(chosen.corrected_mask, instance.mask > 0);
+    return chosen;
+  }
+  on_mask.stages = std::move(stages);
+  return on_mask;
+}
+
+}  // namespace g6d
