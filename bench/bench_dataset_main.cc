@@ -155,6 +155,12 @@ int main(int argc, char** argv) {
   double grow_fraction = -1.0;
   int max_search_regions = -1;
   app.add_option("--grow-fraction", grow_fraction, "search region grown by the depth up to this fraction of the mask box (0 = off; default: solver's)");
+  int region_candidates = -1;
+  double region_search_confidence = -1.0;
+  app.add_option("--region-candidates", region_candidates,
+                 "depth regions solved in place of a mask wider than the object or an unsure answer (0 = off; default: solver's)");
+  app.add_option("--region-search-confidence", region_search_confidence,
+                 "the depth regions are solved too when the mask's answer has a confidence below this (0 = only for wide masks; default: solver's)");
   app.add_option("--max-search-regions", max_search_regions, "depth segments searched alone when the region spans more than the object (0 = off; default: solver's)");
   app.add_option("--icp-stall", icp_stall, "ICP stops when the trimmed RMSE reached no new minimum for N iterations (0 = off; default: solver's)");
   app.add_option("--icp-coarse-points", icp_coarse, "ICP coarse-to-fine: converge on this many source points first (0 = off; default: solver's)");
@@ -256,6 +262,8 @@ int main(int argc, char** argv) {
     if (mhpo_min_rounds >= 0) options.mhpo.min_rounds = mhpo_min_rounds;
     if (grow_fraction >= 0.0) options.region.grow_fraction = grow_fraction;
     if (max_search_regions >= 0) options.max_search_regions = max_search_regions;
+    if (region_candidates >= 0) options.region_candidates = region_candidates;
+    if (region_search_confidence >= 0.0) options.region_search_confidence = region_search_confidence;
     if (pnp_min_quality >= 0.0) options.pnp_min_quality_ratio = pnp_min_quality;
     options.post_refine = post_refine;
     if (icp_min_step > 0) options.icp.min_step_m = icp_min_step;

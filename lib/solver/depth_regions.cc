@@ -1,5 +1,6 @@
 #include "solver/depth_regions.h"
 
+#include <exception>
 #include <utility>
 
 #include <opencv2/core.hpp>
@@ -35,7 +36,12 @@ PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, con
   SolverOptions region_options = options;
   region_options.region_candidates = 0;  // a region of the depth holds one object
   DetectionReport report;
-  std::vector<Detection> found = DetectObjects(frame, {request}, region_options, detect, executor, &report);
+  std::vector<Detection> found;
+  try {
+    found = DetectObjects(frame, {request}, region_options, detect, executor, &report);
+  } catch (const std::exception&) {
+    return on_mask;  // a lower layer refused what the mask's solve took: its answer stands
+  }
   StageReport stages = on_mask.stages;
   stages.mask_answer_score = on_mask.success ? on_mask.score : 2.0;
   stages.depth_regions_solved = report.solves;

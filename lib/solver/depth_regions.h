@@ -22,7 +22,7 @@ namespace g6d {
 /// the answer is unsure (SolverOptions::region_search_confidence) and a region of the depth
 /// inside it gives a lower S_A, that answer, with the time, the count
 /// of regions solved and `depth_region_chosen` in its stages and its corrected mask's IoU
-/// with the caller's mask. Off when options.region_candidates is 0.
+/// with the caller's mask. Off when options.region_candidates is 0. Never throws.
 PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, const TemplateBank& bank,
                                const SolverOptions& options, Executor* executor, PoseResult on_mask);
 

@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "core/timer.h"
+#include "solver/depth_regions.h"
 #include "solver/region.h"
 #include "solver/segments.h"
 
@@ -182,6 +183,11 @@ IdentifiedPose EstimatePoseOfUnknownObject(const Frame& frame, const cv::Mat& ma
 
   // ---- solve the rest, each candidate as if it were the object.
   std::vector<PoseResult> results(candidates.size());
+  // The candidates are compared on the caller's mask; the depth's regions inside it
+  // (depth_regions.h) are searched for the chosen object only: a region is a part of the
+  // mask, and a part is easier to fit for the wrong object.
+  SolverOptions on_mask = options;
+  on_mask.region_candidates = 0;
   int best = -1, second = -1;
   for (size_t i = 0; i < candidates.size(); ++i) {
     IdentityCandidate& candidate = identified.candidates[i];
@@ -190,7 +196,7 @@ IdentifiedPose EstimatePoseOfUnknownObject(const Frame& frame, const cv::Mat& ma
       continue;
     }
     const Stopwatch watch;
-    results[i] = EstimatePose(frame, Instance{candidates[i]->object_id, mask}, *candidates[i], options, executor);
+    results[i] = EstimatePose(frame, Instance{candidates[i]->object_id, mask}, *candidates[i], on_mask, executor);
     candidate.ms = screen_ms[i] + watch.ElapsedMs();
     candidate.success = results[i].success;
     candidate.score = results[i].success ? results[i].score : 2.0;
@@ -206,7 +212,10 @@ IdentifiedPose EstimatePoseOfUnknownObject(const Frame& frame, const cv::Mat& ma
   }
 
   if (best >= 0) {
-    identified.result = std::move(results[best]);
+    const Stopwatch watch;
+    identified.result = SolveOnDepthRegions(frame, Instance{candidates[best]->object_id, mask}, *candidates[best],
+                                            options, executor, std::move(results[best]));
+    identified.candidates[static_cast<size_t>(best)].ms += watch.ElapsedMs();
     identified.object_id = candidates[best]->object_id;
     if (second >= 0) {
       identified.runner_up_id = candidates[second]->object_id;

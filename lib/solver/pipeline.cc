@@ -835,13 +835,8 @@ PoseResult EstimatePoseOnMask(const Frame& frame, const Instance& instance, cons
 
 PoseResult EstimatePose(const Frame& frame, const Instance& instance, const TemplateBank& bank,
                         const SolverOptions& options, Executor* executor) {
-  PoseResult on_mask = EstimatePoseOnMask(frame, instance, bank, options, executor);
-  try {
-    return SolveOnDepthRegions(frame, instance, bank, options, executor, on_mask);  // depth_regions.h
-  } catch (const std::exception& e) {
-    // A lower layer refused what the mask's solve took: its answer stands.
-    return on_mask;
-  }
+  return SolveOnDepthRegions(frame, instance, bank, options, executor,  // depth_regions.h
+                             EstimatePoseOnMask(frame, instance, bank, options, executor));
 }
 
 std::string TrackSolveOptions::Check() const {
