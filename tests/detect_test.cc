@@ -180,6 +180,69 @@ TEST_F(DetectTest, FindsEachObjectOnTheTableWithoutAMask) {
   EXPECT_GT(cv::countNonZero(green), 200);
 }
 
+// The silhouette of an object at a pose (every pixel it covers, occlusion ignored).
+cv::Mat Silhouette(const TestObject& object, const Eigen::Isometry3d& pose) {
+  GlRenderer renderer(object.mesh);
+  return renderer.Render(kCamera, pose).mask > 0;
+}
+
+TEST_F(DetectTest, WithinKeepsTheCandidatesInsideTheGivenArea) {
+  // Two boxes; the request says where one of them is: that one is the answer, whichever
+  // would rank first over the whole frame.
+  const Scene scene = RenderScene({&Box(), &Box()}, {OnTable(Box(), -0.10, 0.3), OnTable(Box(), 0.10, -0.9)}, 11);
+  ThreadPool pool(2);
+  for (size_t k = 0; k < 2; ++k) {
+    DetectRequest request{&Box().bank, 1};
+    cv::Mat within = cv::Mat::zeros(kCamera.height, kCamera.width, CV_8U);
+    within(cv::boundingRect(Silhouette(Box(), scene.poses[k]))).setTo(255);  // a box detector's box
+    request.within = within;
+    const std::vector<Detection> found = DetectObjects(scene.frame, {request}, QuickSolver(), DetectOptions(), &pool, nullptr);
+    ASSERT_EQ(found.size(), 1u) << "box " << k;
+    EXPECT_LT(AddOf(found[0], Box(), scene.poses[k]), 0.1 * Box().bank.diameter_m) << "box " << k;
+  }
+  // A `within` of the wrong type or size is a bad argument, named.
+  DetectRequest bad{&Box().bank, 1};
+  bad.within = cv::Mat::zeros(10, 10, CV_8U);
+  try {
+    DetectObjects(scene.frame, {bad}, QuickSolver(), DetectOptions(), &pool, nullptr);
+    ADD_FAILURE() << "no error for a 10x10 `within`";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("within"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(DetectTest, AMaskOverTwoTouchingObjectsIsSolvedOnTheObjectsOwnRegion) {
+  // Two boxes stand side by side, touching: a segmenter's mask that merged them is one
+  // region wider than a box can be, and no pose of one box explains it. EstimatePose solves
+  // the depth's own regions inside it (depth_regions.h) and answers one box's pose, with
+  // the mask it implies (about half of the merged one).
+  const Eigen::Isometry3d left = OnTable(Box(), -0.05, 0.0);
+  const Eigen::Isometry3d right = OnTable(Box(), -0.05 + Box().size.x() + 0.001, 0.0);
+  const Scene scene = RenderScene({&Box(), &Box()}, {left, right}, 13);
+  const cv::Mat merged = Silhouette(Box(), left) | Silhouette(Box(), right);
+  ThreadPool pool(2);
+  const PoseResult result = EstimatePose(scene.frame, {Box().id, merged}, Box().bank, QuickSolver(), &pool);
+  ASSERT_TRUE(result.success) << result.message;
+  EXPECT_TRUE(result.stages.mask_wider_than_object);
+  EXPECT_GT(result.stages.depth_regions_solved, 0);
+  EXPECT_GT(result.stages.depth_regions_ms, 0.0);
+  EXPECT_TRUE(result.stages.depth_region_chosen) << "S " << result.score << ", on the mask " << result.stages.mask_answer_score;
+  EXPECT_LT(result.score, result.stages.mask_answer_score);
+  const double add = std::min(ComputeAdd(result.cam_from_object, left, Box().mesh.vertices),
+                              ComputeAdd(result.cam_from_object, right, Box().mesh.vertices));
+  EXPECT_LT(add, 0.1 * Box().bank.diameter_m) << "ADD " << add * 1000 << " mm, S " << result.score;
+  EXPECT_GT(result.mask_iou, 0.3);
+  EXPECT_LT(result.mask_iou, 0.7);
+
+  // Off, the solve reads the merged mask alone and says how poorly its answer fits.
+  SolverOptions off = QuickSolver();
+  off.region_candidates = 0;
+  const PoseResult on_mask = EstimatePose(scene.frame, {Box().id, merged}, Box().bank, off, &pool);
+  EXPECT_EQ(on_mask.stages.depth_regions_solved, 0);
+  EXPECT_FALSE(on_mask.stages.depth_region_chosen);
+  EXPECT_GT(on_mask.score, result.score);
+}
+
 TEST_F(DetectTest, AnEmptyTableGivesNoAnswerAndSolvesNothing) {
   const Scene scene = RenderScene({}, {}, 5);
   ThreadPool pool(2);
@@ -246,6 +309,15 @@ TEST_F(DetectTest, BadArgumentsThrowNamingTheProblem) {
   DetectOptions bad;
   bad.max_overlap = 2.0;
   EXPECT_NE(message_of({{&Box().bank, 1}}, bad).find("max_overlap"), std::string::npos);
+}
+
+TEST(SolverOptions, TheDepthRegionOptionsAreChecked) {
+  SolverOptions options;
+  options.region_candidates = -1;
+  EXPECT_NE(options.Check().find("region_candidates"), std::string::npos) << options.Check();
+  options = SolverOptions();
+  options.region_search_confidence = 1.5;
+  EXPECT_NE(options.Check().find("region_search_confidence"), std::string::npos) << options.Check();
 }
 
 TEST(DetectOptions, CheckNamesTheBadField) {
