@@ -145,6 +145,12 @@ void PrintPose(const g6d::PoseResult& result, const std::string& mask_label) {
     std::printf("; the answer's mask has IoU %.3f with it%s\n", result.mask_iou,
                 result.mask_refined_rounds > 0 ? " (pose refined on it)" : "");
   }
+  if (s.depth_regions_solved > 0) {
+    std::printf("regions     %s; %d of the depth's regions inside it solved: %s (S on the mask %.3f)\n",
+                s.mask_wider_than_object ? "the mask holds more than the object" : "the mask's answer was unsure",
+                s.depth_regions_solved, s.depth_region_chosen ? "one gave T_A" : "the mask's answer stands",
+                s.mask_answer_score);
+  }
   std::printf("time (ms)  ");
   for (const g6d::StageTime& stage : g6d::StageTimes(s)) std::printf(" %s %.1f ", stage.name, stage.ms);
   std::printf("\n");
@@ -189,7 +195,11 @@ nlohmann::json PoseJson(const g6d::PoseResult& result, const std::string& mask_t
                {"far_leak_pixels", s.mask_far_leak},
                {"surface_tolerance_m", s.surface_tolerance_m},
                {"answer_mask_iou", result.mask_iou},
-               {"refined_rounds", result.mask_refined_rounds}};
+               {"refined_rounds", result.mask_refined_rounds},
+               {"wider_than_object", s.mask_wider_than_object},
+               {"depth_regions_solved", s.depth_regions_solved},
+               {"depth_region_chosen", s.depth_region_chosen},
+               {"answer_score_on_mask", s.mask_answer_score}};
   j["cut_short"] = result.cut_short;
   for (const g6d::StageTime& stage : g6d::StageTimes(s)) j["time_ms"][stage.name] = stage.ms;
   return j;
