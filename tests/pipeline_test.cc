@@ -133,10 +133,20 @@ TEST_F(PipelineTest, AMaskMergedWithANeighbourInFrontIsSolvedByItsOwnSegment) {
   texture.copyTo(view.rgb(slab));
   cv::Mat merged = view.mask.clone();
   merged(slab).setTo(255);
-  const PoseResult result = EstimatePose(MakeFrame(view), {"box", merged}, *bank_, SolverOptions(), &pool);
+  // Ownership alone (the depth's regions off: they would solve the object's segment as a
+  // mask of its own, depth_regions.h).
+  SolverOptions own;
+  own.region_candidates = 0;
+  const PoseResult result = EstimatePose(MakeFrame(view), {"box", merged}, *bank_, own, &pool);
   ASSERT_TRUE(result.success) << result.message;
   EXPECT_LT(ComputeAdd(result.cam_from_object, truth, mesh_->vertices), 0.1 * bank_->diameter_m);
   EXPECT_GT(result.details.foreign_pixels, 0);
+  EXPECT_TRUE(result.stages.mask_wider_than_object);
+  // With the defaults the answer is right too, whichever of the two gave it.
+  const PoseResult by_default = EstimatePose(MakeFrame(view), {"box", merged}, *bank_, SolverOptions(), &pool);
+  ASSERT_TRUE(by_default.success) << by_default.message;
+  EXPECT_LT(ComputeAdd(by_default.cam_from_object, truth, mesh_->vertices), 0.1 * bank_->diameter_m);
+  EXPECT_GT(by_default.stages.depth_regions_solved, 0);
   SolverOptions every_pixel;
   every_pixel.score.segment_own_fraction = 0.0;
   const PoseScore counted = ScoreInstancePose(MakeFrame(view), {"box", merged}, *bank_, every_pixel, result.cam_from_object);
@@ -170,6 +180,37 @@ TEST_F(PipelineTest, PostRefinementNeverRaisesTheScore) {
       EXPECT_TRUE(a.cam_from_object.matrix() == b.cam_from_object.matrix());
     }
   }
+}
+
+// A segmenter's mask eroded to a sliver (9 pixels, too few to solve on) still says where the
+// object is: the depth's region there is solved instead (depth_regions.h). Without the
+// regions the sliver is refused, naming why.
+TEST_F(PipelineTest, ASliverOfAMaskStillSaysWhereTheObjectIs) {
+  GlRenderer renderer(*mesh_);
+  std::mt19937_64 rng(17);
+  ThreadPool pool(2);
+  const Eigen::Isometry3d truth = test::RandomPose(kCamera, 0.6, 0.7, &rng);
+  const test::SyntheticView view = test::RenderSyntheticView(&renderer, *mesh_, kCamera, truth, {});
+  cv::Mat inside;
+  cv::erode(view.mask, inside, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(9, 9)));
+  std::vector<cv::Point> points;
+  cv::findNonZero(inside, points);
+  ASSERT_FALSE(points.empty());
+  const cv::Point centre = points[points.size() / 2];
+  cv::Mat sliver = cv::Mat::zeros(view.mask.size(), CV_8U);
+  sliver(cv::Rect(centre.x - 1, centre.y - 1, 3, 3)).setTo(255);
+  const PoseResult result = EstimatePose(MakeFrame(view), {"box", sliver}, *bank_, SolverOptions(), &pool);
+  ASSERT_TRUE(result.success) << result.message << " (too thin " << result.stages.mask_too_thin << ", "
+                              << result.stages.depth_regions_solved << " regions solved)";
+  EXPECT_TRUE(result.stages.mask_too_thin);
+  EXPECT_TRUE(result.stages.depth_region_chosen);
+  EXPECT_LT(ComputeAdd(result.cam_from_object, truth, mesh_->vertices), 0.1 * bank_->diameter_m);
+  SolverOptions off;
+  off.region_candidates = 0;
+  const PoseResult refused = EstimatePose(MakeFrame(view), {"box", sliver}, *bank_, off, &pool);
+  EXPECT_EQ(refused.termination, Termination::kBadInput);
+  EXPECT_NE(refused.message.find("valid depth"), std::string::npos) << refused.message;
+  EXPECT_TRUE(refused.stages.mask_too_thin);
 }
 
 TEST_F(PipelineTest, BadInputGivesAClearReason) {

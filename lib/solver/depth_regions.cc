@@ -2,9 +2,9 @@
 
 #include <exception>
 #include <utility>
+#include <vector>
 
 #include <opencv2/core.hpp>
-#include <vector>
 
 #include "core/timer.h"
 #include "solver/detect.h"
@@ -14,7 +14,11 @@ namespace g6d {
 
 PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, const TemplateBank& bank,
                                const SolverOptions& options, Executor* executor, PoseResult on_mask) {
-  const bool unsure = !on_mask.success || on_mask.confidence < options.region_search_confidence;
+  // Unsure: a poor answer, no hypothesis at all, or a mask too thin to solve on (a refusal
+  // for any other reason, e.g. reject_border_masks, stands).
+  const bool unsure = on_mask.success ? on_mask.confidence < options.region_search_confidence
+                                      : on_mask.termination == Termination::kNoHypothesis ||
+                                            (on_mask.termination == Termination::kBadInput && on_mask.stages.mask_too_thin);
   // A mask with too few pixels with depth (an eroded sliver) still says where the object
   // is; a mask of the wrong size or type says nothing, and a bad frame none of the regions
   // can use either (its message stays the answer's).
@@ -39,6 +43,12 @@ PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, con
   detect.max_union_segments = 4;
   SolverOptions region_options = options;
   region_options.region_candidates = 0;  // a region of the depth holds one object
+  if (options.budget_ms > 0.0) {
+    // The regions get what the mask's solve left of the budget (solved side by side).
+    const double left_ms = options.budget_ms - on_mask.stages.total_ms;
+    if (left_ms <= 0.0) return on_mask;
+    region_options.budget_ms = left_ms;
+  }
   DetectionReport report;
   std::vector<Detection> found;
   try {
@@ -72,6 +82,7 @@ PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, con
     merged.total_ms = stages.total_ms;
     merged.mask_given_pixels = stages.mask_given_pixels;
     merged.mask_wider_than_object = stages.mask_wider_than_object;
+    merged.mask_too_thin = stages.mask_too_thin;
     merged.depth_regions_solved = stages.depth_regions_solved;
     merged.depth_region_chosen = true;
     merged.mask_answer_score = stages.mask_answer_score;

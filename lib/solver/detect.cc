@@ -432,9 +432,9 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
   solve_options.mask_trust = MaskTrust::kDepth;
   solve_options.region_candidates = 0;  // a region of the depth is solved as it is
   cv::Mat first_region = out.support == 0;
-  // Requests that all say where their object is: only the area around their `within`
-  // (grown by its longer side, so that a region the object continues beyond it stays
-  // whole) is segmented.
+  // Requests that all say where their object is: only the area around their `within` is
+  // segmented, grown by its longer side and by the object's size in pixels at the nearest
+  // depth inside it (a region the object continues beyond a sliver stays whole).
   std::vector<int> within_pixels(requests.size(), 0);  // pixels with depth inside `within`
   bool all_within = true;
   cv::Rect within_area;
@@ -443,13 +443,22 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
     all_within = all_within && !within.empty();
     if (within.empty()) continue;
     const cv::Rect box = cv::boundingRect(within);
-    const int grow = std::max(box.width, box.height);
-    within_area |= cv::Rect(box.x - grow, box.y - grow, box.width + 2 * grow, box.height + 2 * grow);
+    float nearest = std::numeric_limits<float>::infinity();
     for (int v = box.y; v < box.y + box.height; ++v) {
       const uint8_t* w = within.ptr<uint8_t>(v);
       const float* d = frame.depth.ptr<float>(v);
-      for (int u = box.x; u < box.x + box.width; ++u) within_pixels[r] += w[u] && ValidDepth(d[u]);
+      for (int u = box.x; u < box.x + box.width; ++u) {
+        if (!w[u] || !ValidDepth(d[u])) continue;
+        ++within_pixels[r];
+        nearest = std::min(nearest, d[u]);
+      }
     }
+    double grow = std::max(box.width, box.height);
+    if (std::isfinite(nearest)) {
+      grow = std::max(grow, std::max(frame.camera.fx, frame.camera.fy) * requests[r].bank->diameter_m / nearest);
+    }
+    const int g = static_cast<int>(std::ceil(std::min(grow, static_cast<double>(std::max(frame.depth.cols, frame.depth.rows)))));
+    within_area |= cv::Rect(box.x - g, box.y - g, box.width + 2 * g, box.height + 2 * g);
   }
   if (all_within) {
     cv::Mat area = cv::Mat::zeros(first_region.size(), CV_8U);

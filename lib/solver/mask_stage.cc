@@ -47,7 +47,10 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
     observation->region = ComputeObservedRegion(frame.camera, observation->mask, depth, diameter_m, options.region);
     observation->mask = observation->region.mask;
     observation->box = cv::boundingRect(observation->mask);
-    if (observation->box.area() == 0) return "the instance mask is empty once its leaks are removed";
+    if (observation->box.area() == 0) {
+      observation->too_thin = true;
+      return "the instance mask is empty once its leaks are removed";
+    }
     observation->score.depth_evidence = true;
     observation->score.surface_tolerance_m = observation->region.surface_tolerance_m;
   }
@@ -56,6 +59,7 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
   int& valid_depth = observation->valid_depth;
   observation->z_m = MedianMaskedDepth(mask, depth, &valid_depth);  // eq. (9), robust
   if (valid_depth < options.min_valid_depth_pixels) {
+    observation->too_thin = true;
     return "the mask has " + std::to_string(valid_depth) + " pixels with valid depth (need " +
            std::to_string(options.min_valid_depth_pixels) + ")";
   }

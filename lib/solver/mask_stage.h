@@ -47,6 +47,9 @@ struct Observation {
   // kDepth: the region's depth points span more than the object can reach (a merged mask, a
   // box over neighbours): it holds more than the object.
   bool wider_than_object = false;
+  // PrepareObservation refused the mask for too little evidence (a sliver with too few
+  // pixels with depth, or nothing left once its leaks are removed): it still says where.
+  bool too_thin = false;
   ScoreOptions score;        // options.score with this instance's depth evidence
   std::unique_ptr<PointCloudIndex> observed;  // Y: observed points inside the mask
   EvaluationGrid selection_grid, refine_grid;

@@ -802,7 +802,10 @@ PoseResult EstimatePoseOnMask(const Frame& frame, const Instance& instance, cons
     Stopwatch watch;
     Observation observation;  // the mask stage (mask_stage.h): the mask as evidence
     const std::string bad_observation = PrepareObservation(frame, instance, options, bank.diameter_m, &observation);
-    if (!bad_observation.empty()) return fail(Termination::kBadInput, bad_observation);
+    if (!bad_observation.empty()) {
+      stages.mask_too_thin = observation.too_thin;
+      return fail(Termination::kBadInput, bad_observation);
+    }
     ReportObservation(observation, &result);
     const PoseComparer comparer(AnswerSymmetries(bank), DistancePoints(bank.online_mesh, 64));
     const SolveContext context = MakeSolveContext(frame, bank, options, executor, observation, comparer, &clock, &stages);

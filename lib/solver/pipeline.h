@@ -227,6 +227,10 @@ struct StageReport {
   /// The region's depth spans more than the object can reach (kDepth): the mask holds more
   /// than the object (merged with a neighbour, a box).
   bool mask_wider_than_object = false;
+  /// The mask was refused for too little evidence (too few pixels with depth, or nothing
+  /// left once its leaks were removed; termination kBadInput): it still says where the
+  /// object is, and the depth's regions there are solved (SolverOptions::region_candidates).
+  bool mask_too_thin = false;
   /// The depth's own regions solved in its place (SolverOptions::region_candidates), and
   /// whether one of them gave T_A (then `region` of the answer is that region).
   int depth_regions_solved = 0;
