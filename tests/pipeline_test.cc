@@ -32,6 +32,14 @@ class PipelineTest : public ::testing::Test {
     delete bank_;
     delete mesh_;
   }
+  // The box alone at a random pose 0.6-0.7 m away, drawn with `seed`: *truth and its view.
+  static test::SyntheticView RandomView(uint64_t seed, Eigen::Isometry3d* truth) {
+    GlRenderer renderer(*mesh_);
+    std::mt19937_64 rng(seed);
+    *truth = test::RandomPose(kCamera, 0.6, 0.7, &rng);
+    return test::RenderSyntheticView(&renderer, *mesh_, kCamera, *truth, {});
+  }
+
   static Mesh* mesh_;
   static TemplateBank* bank_;
 };
@@ -71,10 +79,8 @@ TEST_F(PipelineTest, RecallOnRandomPosesWithNoiseAndOcclusion) {
 }
 
 TEST_F(PipelineTest, SameResultWithOneAndTwoThreads) {
-  GlRenderer renderer(*mesh_);
-  std::mt19937_64 rng(7);
-  const Eigen::Isometry3d truth = test::RandomPose(kCamera, 0.6, 0.7, &rng);
-  const test::SyntheticView view = test::RenderSyntheticView(&renderer, *mesh_, kCamera, truth, {});
+  Eigen::Isometry3d truth;
+  const test::SyntheticView view = RandomView(7, &truth);
   InlineExecutor one;
   ThreadPool two(2);
   const PoseResult a = EstimatePose(MakeFrame(view), {"box", view.mask}, *bank_, SolverOptions(), &one);
@@ -90,11 +96,9 @@ TEST_F(PipelineTest, SameResultWithOneAndTwoThreads) {
 // carries the mask it implies with its IoU with the caller's mask (lower than with the
 // true visible mask: the segmenter's error, made visible).
 TEST_F(PipelineTest, AnErodedMaskIsCorrectedByTheDepthAndItsFitIsReported) {
-  GlRenderer renderer(*mesh_);
-  std::mt19937_64 rng(11);
   ThreadPool pool(2);
-  const Eigen::Isometry3d truth = test::RandomPose(kCamera, 0.6, 0.7, &rng);
-  const test::SyntheticView view = test::RenderSyntheticView(&renderer, *mesh_, kCamera, truth, {});
+  Eigen::Isometry3d truth;
+  const test::SyntheticView view = RandomView(11, &truth);
   cv::Mat eroded;
   cv::erode(view.mask, eroded, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(9, 9)));
   const PoseResult result = EstimatePose(MakeFrame(view), {"box", eroded}, *bank_, SolverOptions(), &pool);
@@ -118,11 +122,9 @@ TEST_F(PipelineTest, AnErodedMaskIsCorrectedByTheDepthAndItsFitIsReported) {
 // pose is right, and its S is what the object alone gives (lower than with every mask
 // pixel counted).
 TEST_F(PipelineTest, AMaskMergedWithANeighbourInFrontIsSolvedByItsOwnSegment) {
-  GlRenderer renderer(*mesh_);
-  std::mt19937_64 rng(5);
   ThreadPool pool(2);
-  const Eigen::Isometry3d truth = test::RandomPose(kCamera, 0.6, 0.7, &rng);
-  test::SyntheticView view = test::RenderSyntheticView(&renderer, *mesh_, kCamera, truth, {});
+  Eigen::Isometry3d truth;
+  test::SyntheticView view = RandomView(5, &truth);
   const cv::Rect box = cv::boundingRect(view.mask);
   const cv::Rect slab = cv::Rect(box.x + box.width, box.y, box.width / 2, box.height) & cv::Rect(0, 0, 640, 480);
   double nearest = 0.0;
@@ -186,11 +188,9 @@ TEST_F(PipelineTest, PostRefinementNeverRaisesTheScore) {
 // object is: the depth's region there is solved instead (depth_regions.h). Without the
 // regions the sliver is refused, naming why.
 TEST_F(PipelineTest, ASliverOfAMaskStillSaysWhereTheObjectIs) {
-  GlRenderer renderer(*mesh_);
-  std::mt19937_64 rng(17);
   ThreadPool pool(2);
-  const Eigen::Isometry3d truth = test::RandomPose(kCamera, 0.6, 0.7, &rng);
-  const test::SyntheticView view = test::RenderSyntheticView(&renderer, *mesh_, kCamera, truth, {});
+  Eigen::Isometry3d truth;
+  const test::SyntheticView view = RandomView(17, &truth);
   cv::Mat inside;
   cv::erode(view.mask, inside, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(9, 9)));
   std::vector<cv::Point> points;
@@ -214,10 +214,8 @@ TEST_F(PipelineTest, ASliverOfAMaskStillSaysWhereTheObjectIs) {
 }
 
 TEST_F(PipelineTest, BadInputGivesAClearReason) {
-  GlRenderer renderer(*mesh_);
-  std::mt19937_64 rng(9);
-  const Eigen::Isometry3d truth = test::RandomPose(kCamera, 0.6, 0.7, &rng);
-  const test::SyntheticView view = test::RenderSyntheticView(&renderer, *mesh_, kCamera, truth, {});
+  Eigen::Isometry3d truth;
+  const test::SyntheticView view = RandomView(9, &truth);
   InlineExecutor executor;
   const SolverOptions options;
   auto expect_bad = [&](const Frame& frame, const Instance& instance, const std::string& words) {
