@@ -47,7 +47,7 @@ struct DetectRequest {
   /// only regions formed from the depth inside it that share at least half of the smaller
   /// of the two (the region, the pixels with depth inside it) are its candidates. Frames
   /// whose every request has one are segmented inside their union only.
-  cv::Mat within;
+  cv::Mat within = cv::Mat();
 };
 
 /// Options of DetectObjects().
