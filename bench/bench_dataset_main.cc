@@ -539,7 +539,7 @@ int main(int argc, char** argv) {
         if (degrading) std::fprintf(stderr, " | mask IoU %.2f", mask_iou);
         if (s.depth_regions_solved > 0) {
           std::fprintf(stderr, " | %s: mask's answer S %.3f, %d depth regions solved%s",
-                       s.mask_wider_than_object ? "wider than the object" : "unsure", s.mask_answer_score, s.depth_regions_solved, s.depth_region_chosen ? ", one chosen" : "");
+                       s.mask_wider_than_object ? "wider than the object" : s.mask_is_box ? "a box" : "unsure", s.mask_answer_score, s.depth_regions_solved, s.depth_region_chosen ? ", one chosen" : "");
         }
         if (unknown_identity) {
           std::fprintf(stderr, " | identity %s%s", identified.object_id.empty() ? "(none)" : identified.object_id.c_str(),

@@ -147,7 +147,9 @@ void PrintPose(const g6d::PoseResult& result, const std::string& mask_label) {
   }
   if (s.depth_regions_solved > 0) {
     std::printf("regions     %s; %d of the depth's regions inside it solved: %s (S on the mask %.3f)\n",
-                s.mask_wider_than_object ? "the mask holds more than the object" : "the mask's answer was unsure",
+                s.mask_wider_than_object ? "the mask holds more than the object"
+                : s.mask_is_box         ? "the mask is a box"
+                                        : "the mask's answer was unsure",
                 s.depth_regions_solved, s.depth_region_chosen ? "one gave T_A" : "the mask's answer stands",
                 s.mask_answer_score);
   }
@@ -197,6 +199,7 @@ nlohmann::json PoseJson(const g6d::PoseResult& result, const std::string& mask_t
                {"answer_mask_iou", result.mask_iou},
                {"refined_rounds", result.mask_refined_rounds},
                {"wider_than_object", s.mask_wider_than_object},
+               {"is_box", s.mask_is_box},
                {"depth_regions_solved", s.depth_regions_solved},
                {"depth_region_chosen", s.depth_region_chosen},
                {"answer_score_on_mask", s.mask_answer_score}};

@@ -25,7 +25,7 @@ PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, con
   const bool usable = instance.mask.size() == frame.depth.size() && instance.mask.type() == CV_8U &&
                       frame.rgb.size() == frame.depth.size() && cv::countNonZero(instance.mask) > 0;
   if (options.mask_trust != MaskTrust::kDepth || options.region_candidates <= 0 || on_mask.cut_short || !usable ||
-      !(on_mask.stages.mask_wider_than_object || unsure)) {
+      !(on_mask.stages.mask_wider_than_object || on_mask.stages.mask_is_box || unsure)) {
     return on_mask;
   }
   const Stopwatch watch;
@@ -83,6 +83,7 @@ PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, con
     merged.mask_given_pixels = stages.mask_given_pixels;
     merged.mask_wider_than_object = stages.mask_wider_than_object;
     merged.mask_too_thin = stages.mask_too_thin;
+    merged.mask_is_box = stages.mask_is_box;
     merged.depth_regions_solved = stages.depth_regions_solved;
     merged.depth_region_chosen = true;
     merged.mask_answer_score = stages.mask_answer_score;

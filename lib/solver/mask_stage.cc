@@ -34,6 +34,9 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
   observation->box = cv::boundingRect(observation->mask);
   if (observation->box.area() == 0) return "the instance mask is empty";
   observation->truncated = TouchesBorder(observation->box, observation->mask.size());
+  // A mask that fills its bounding box is a detector's box (the service's box input, or a
+  // user's rectangle): its outline says nothing about the object's.
+  observation->is_box = cv::countNonZero(observation->mask) == observation->box.area();
   if (options.reject_border_masks && observation->truncated) {
     return "the instance mask touches the image border (object truncated; solved unless reject_border_masks)";
   }

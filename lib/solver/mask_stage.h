@@ -47,6 +47,8 @@ struct Observation {
   // kDepth: the region's depth points span more than the object can reach (a merged mask, a
   // box over neighbours): it holds more than the object.
   bool wider_than_object = false;
+  // The caller's mask fills its bounding box: a detector's box, whose outline is not the object's.
+  bool is_box = false;
   // PrepareObservation refused the mask for too little evidence (a sliver with too few
   // pixels with depth, or nothing left once its leaks are removed): it still says where.
   bool too_thin = false;

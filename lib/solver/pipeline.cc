@@ -541,6 +541,7 @@ void ReportObservation(const Observation& observation, PoseResult* result) {
   stages.support_plane = observation.region.has_plane;
   stages.surface_tolerance_m = observation.region.surface_tolerance_m;
   stages.mask_wider_than_object = observation.wider_than_object;
+  stages.mask_is_box = observation.is_box;
 }
 
 // The context of one solve: the score options per mesh (back faces culled only on closed
@@ -804,6 +805,7 @@ PoseResult EstimatePoseOnMask(const Frame& frame, const Instance& instance, cons
     const std::string bad_observation = PrepareObservation(frame, instance, options, bank.diameter_m, &observation);
     if (!bad_observation.empty()) {
       stages.mask_too_thin = observation.too_thin;
+      stages.mask_is_box = observation.is_box;
       return fail(Termination::kBadInput, bad_observation);
     }
     ReportObservation(observation, &result);

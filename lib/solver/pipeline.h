@@ -227,6 +227,9 @@ struct StageReport {
   /// The region's depth spans more than the object can reach (kDepth): the mask holds more
   /// than the object (merged with a neighbour, a box).
   bool mask_wider_than_object = false;
+  /// The caller's mask fills its bounding box (a detector's box): its outline says nothing
+  /// of the object's, so the depth's regions inside it are solved too (kDepth).
+  bool mask_is_box = false;
   /// The mask was refused for too little evidence (too few pixels with depth, or nothing
   /// left once its leaks were removed; termination kBadInput): it still says where the
   /// object is, and the depth's regions there are solved (SolverOptions::region_candidates).
