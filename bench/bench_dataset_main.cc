@@ -26,6 +26,7 @@
 #include "eval/metrics.h"
 #include "mesh/mesh.h"
 #include "solver/identify.h"
+#include "solver/neighbours.h"
 #include "solver/pipeline.h"
 #include "templates/cache.h"
 #include "bench_objects.h"
@@ -161,6 +162,10 @@ int main(int argc, char** argv) {
                  "depth regions solved in place of a mask wider than the object or an unsure answer (0 = off; default: solver's)");
   app.add_option("--region-search-confidence", region_search_confidence,
                  "the depth regions are solved too when the mask's answer has a confidence below this (0 = only for wide masks; default: solver's)");
+  bool no_neighbours = false;
+  app.add_flag("--no-neighbours", no_neighbours,
+               "solve each instance alone: no second pass of an image's doubtful instances without the pixels their "
+               "confident neighbours explain (SolverOptions::explain_neighbours; ablation)");
   app.add_option("--max-search-regions", max_search_regions, "depth segments searched alone when the region spans more than the object (0 = off; default: solver's)");
   app.add_option("--icp-stall", icp_stall, "ICP stops when the trimmed RMSE reached no new minimum for N iterations (0 = off; default: solver's)");
   app.add_option("--icp-coarse-points", icp_coarse, "ICP coarse-to-fine: converge on this many source points first (0 = off; default: solver's)");
@@ -263,6 +268,7 @@ int main(int argc, char** argv) {
     if (grow_fraction >= 0.0) options.region.grow_fraction = grow_fraction;
     if (max_search_regions >= 0) options.max_search_regions = max_search_regions;
     if (region_candidates >= 0) options.region_candidates = region_candidates;
+    if (no_neighbours) options.explain_neighbours = false;
     if (region_search_confidence >= 0.0) options.region_search_confidence = region_search_confidence;
     if (pnp_min_quality >= 0.0) options.pnp_min_quality_ratio = pnp_min_quality;
     options.post_refine = post_refine;
@@ -354,6 +360,29 @@ int main(int argc, char** argv) {
     // Degraded masks: IoU with the GT visible mask, how many were merged / came out empty.
     double mask_iou_sum = 0.0;
     int masks_merged = 0, masks_empty = 0;
+    // The mask the solver is given for one GT instance (the GT visible mask, or degraded).
+    auto solver_mask_of = [&](const g6d::BopScene& scene, const g6d::BopFrame& bop_frame, const g6d::BopTarget& target,
+                              size_t gt_idx, bool* merged) {
+      const cv::Mat gt_mask = g6d::LoadBopMaskVisib(scene, target.im_id, static_cast<int>(gt_idx));
+      if (!degrading) return gt_mask;
+      // Merge needs the image's other instances (their GT visible masks); nothing else does.
+      std::vector<cv::Mat> other_masks;
+      if (degrade.mode == g6d::MaskDegradation::kMerge) {
+        for (size_t other = 0; other < bop_frame.gt.size(); ++other) {
+          if (other == gt_idx) continue;
+          other_masks.push_back(g6d::LoadBopMaskVisib(scene, target.im_id, static_cast<int>(other)));
+        }
+      }
+      return g6d::DegradeMask(gt_mask, other_masks, degrade,
+                              g6d::MaskInstanceKey(target.scene_id, target.im_id, static_cast<int>(gt_idx)), merged);
+    };
+    // With a known identity an image's target instances are solved together, as the service
+    // solves a frame's instances (ExplainAwayNeighbours, SolverOptions::explain_neighbours):
+    // each is solved (EstimatePose), then the doubtful ones again without the pixels their
+    // confident neighbours explain. The answers, by GT index, of the image being evaluated.
+    const bool frame_pass = !unknown_identity && options.explain_neighbours;
+    std::pair<int, int> frame_pass_image{-1, -1};
+    std::map<size_t, g6d::PoseResult> frame_answers;
     for (const g6d::BopTarget& target : dataset.targets) {
       if (!scenes.count(target.scene_id)) scenes.emplace(target.scene_id, g6d::LoadBopScene(dataset_dir, target.scene_id));
       const g6d::BopScene& scene = scenes.at(target.scene_id);
@@ -368,6 +397,34 @@ int main(int argc, char** argv) {
       frame.depth = g6d::LoadBopDepth(scene, target.im_id);
       frame.camera.width = frame.rgb.cols;
       frame.camera.height = frame.rgb.rows;
+      if (frame_pass && frame_pass_image != std::make_pair(target.scene_id, target.im_id)) {
+        frame_pass_image = {target.scene_id, target.im_id};
+        frame_answers.clear();
+        std::vector<size_t> gt_indices;
+        std::vector<g6d::Instance> frame_instances;
+        std::vector<const g6d::TemplateBank*> frame_banks;
+        for (const g6d::BopTarget& other : dataset.targets) {
+          if (other.scene_id != target.scene_id || other.im_id != target.im_id) continue;
+          if (!objects.count(other.obj_id)) {
+            objects.emplace(other.obj_id, g6d::bench::LoadBenchObject(dataset, other.obj_id, caches_dir, adds_ids));
+          }
+          int found = 0;
+          for (size_t gt_idx = 0; gt_idx < bop_frame.gt.size() && found < other.inst_count; ++gt_idx) {
+            if (bop_frame.gt[gt_idx].obj_id != other.obj_id) continue;
+            ++found;
+            bool merged = false;
+            gt_indices.push_back(gt_idx);
+            frame_banks.push_back(&objects.at(other.obj_id).bank);
+            frame_instances.push_back({frame_banks.back()->object_id, solver_mask_of(scene, bop_frame, other, gt_idx, &merged)});
+          }
+        }
+        std::vector<g6d::PoseResult> frame_results;
+        for (size_t k = 0; k < frame_instances.size(); ++k) {
+          frame_results.push_back(g6d::EstimatePose(frame, frame_instances[k], *frame_banks[k], options, &pool));
+        }
+        g6d::ExplainAwayNeighbours(frame, frame_instances, frame_banks, options, &pool, &frame_results);
+        for (size_t k = 0; k < gt_indices.size(); ++k) frame_answers[gt_indices[k]] = std::move(frame_results[k]);
+      }
       int instances = 0;
       for (size_t gt_idx = 0; gt_idx < bop_frame.gt.size() && instances < target.inst_count; ++gt_idx) {
         const g6d::BopGtInstance& gt = bop_frame.gt[gt_idx];
@@ -376,23 +433,10 @@ int main(int argc, char** argv) {
         if (seen++ % every != 0) continue;
         const cv::Mat gt_mask =
             g6d::LoadBopMaskVisib(scene, target.im_id, static_cast<int>(gt_idx));
-        cv::Mat solver_mask = gt_mask;
+        bool merged = false;
+        const cv::Mat solver_mask = solver_mask_of(scene, bop_frame, target, gt_idx, &merged);
         double mask_iou = 1.0;
         if (degrading) {
-          // Merge needs the image's other instances (their GT visible masks); nothing else does.
-          std::vector<cv::Mat> other_masks;
-          if (degrade.mode == g6d::MaskDegradation::kMerge) {
-            for (size_t other = 0; other < bop_frame.gt.size(); ++other) {
-              if (other == gt_idx) continue;
-              other_masks.push_back(
-                  g6d::LoadBopMaskVisib(scene, target.im_id, static_cast<int>(other)));
-            }
-          }
-          bool merged = false;
-          solver_mask = g6d::DegradeMask(
-              gt_mask, other_masks, degrade,
-              g6d::MaskInstanceKey(target.scene_id, target.im_id, static_cast<int>(gt_idx)),
-              &merged);
           mask_iou = g6d::MaskIou(solver_mask, gt_mask);
           masks_merged += merged ? 1 : 0;
           masks_empty += cv::countNonZero(solver_mask) == 0 ? 1 : 0;
@@ -412,7 +456,8 @@ int main(int argc, char** argv) {
           }
           identify_ms.push_back(identified.total_ms);
         } else {
-          identified.result = g6d::EstimatePose(frame, instance, object.bank, options, &pool);
+          identified.result = frame_pass ? frame_answers.at(gt_idx)
+                                         : g6d::EstimatePose(frame, instance, object.bank, options, &pool);
           identified.object_id = object.bank.object_id;
         }
         const g6d::PoseResult& result = identified.result;
@@ -540,6 +585,10 @@ int main(int argc, char** argv) {
         if (s.depth_regions_solved > 0) {
           std::fprintf(stderr, " | %s: mask's answer S %.3f, %d depth regions solved%s",
                        s.mask_wider_than_object ? "wider than the object" : s.mask_is_box ? "a box" : "unsure", s.mask_answer_score, s.depth_regions_solved, s.depth_region_chosen ? ", one chosen" : "");
+        }
+        if (s.neighbour_pixels > 0) {
+          std::fprintf(stderr, " | %d px the neighbours explain: %s", s.neighbour_pixels,
+                       s.neighbour_answer_chosen ? "solved without them" : "first answer stands");
         }
         if (unknown_identity) {
           std::fprintf(stderr, " | identity %s%s", identified.object_id.empty() ? "(none)" : identified.object_id.c_str(),

@@ -17,6 +17,7 @@
 #include "bot_core/rigid_transform_t.hpp"
 #include "core/error.h"
 #include "solver/detect.h"
+#include "solver/neighbours.h"
 #include "solver/region.h"
 
 namespace g6d {
@@ -404,6 +405,33 @@ std::vector<Service::TrackProbe> Service::MakeTrackProbes(const Job& job, double
   return probes;
 }
 
+void Service::ExplainNeighbours(const Job& job, const std::vector<Instance>& instances, size_t num_masked,
+                                const std::vector<std::optional<pose_estimate_t>>& failures,
+                                std::vector<TrackedAnswer>* answers) {
+  // The frame's masked (and boxed) instances read together (neighbours.h): a doubtful one
+  // is solved again without the pixels its confident neighbours' answers explain.
+  std::vector<size_t> solved;
+  std::vector<Instance> masked;
+  std::vector<const TemplateBank*> banks;
+  std::vector<PoseResult> results;
+  for (size_t k = 0; k < num_masked; ++k) {
+    if (failures[k]) continue;
+    solved.push_back(k);
+    masked.push_back(instances[k]);
+    banks.push_back(frame_store_->banks.at(instances[k].object_id).get());
+    results.push_back((*answers)[k].result);
+  }
+  if (solved.size() < 2 || abandon_) return;
+  try {
+    ExplainAwayNeighbours(job.decoded.frame, masked, banks, solver_options_, pool_.get(), &results);
+  } catch (const std::exception& e) {
+    spdlog::warn("frame seq {}: reading the instances together failed ({}); each answer stands", job.header.seq,
+                 e.what());
+    return;
+  }
+  for (size_t m = 0; m < solved.size(); ++m) (*answers)[solved[m]].result = std::move(results[m]);
+}
+
 TrackedAnswer Service::SolveProbe(const Job& job, const TrackProbe& probe, const TrackPlan& plan,
                                   bool* needs_detection) {
   *needs_detection = true;  // unless the track is accepted
@@ -510,6 +538,7 @@ void Service::ProcessJob(const Job& job) {
   for (size_t p = 0; p < probes.size(); ++p) {
     if (probe_lost[p]) answers[num_masked + p].result = PoseResult();
   }
+  ExplainNeighbours(job, instances, num_masked, failures, &answers);
 
   // ---- Detection requests: one DetectObjects call for the frame, so that non-maximum
   // suppression spans every requested object.

@@ -157,6 +157,12 @@ class Service {
   /// track was not accepted. A failed answer when abandoned or on an exception.
   TrackedAnswer SolveProbe(const Job& job, const TrackProbe& probe, const TrackPlan& plan,
                            bool* needs_detection);
+  /// ExplainAwayNeighbours over the frame's first `num_masked` answers (the masked and
+  /// boxed instances that were solved, `failures` empty): a doubtful answer is solved again
+  /// without the pixels its confident neighbours explain. Scheduler thread.
+  void ExplainNeighbours(const Job& job, const std::vector<Instance>& instances, size_t num_masked,
+                         const std::vector<std::optional<pose_estimate_t>>& failures,
+                         std::vector<TrackedAnswer>* answers);
   /// Tracker::Plan of the job's solvable `instances` at frame time `time_s`, or detection
   /// plans (and the tracks forgotten) if it throws.
   std::vector<TrackPlan> PlanFrame(const Job& job, double time_s,

@@ -13,6 +13,7 @@
 #include "eval/metrics.h"
 #include "mesh/mesh.h"
 #include "render/gl_renderer.h"
+#include "solver/neighbours.h"
 #include "synthetic_scene.h"
 #include "test_bank.h"
 
@@ -243,6 +244,63 @@ TEST_F(DetectTest, AMaskOverTwoTouchingObjectsIsSolvedOnTheObjectsOwnRegion) {
   EXPECT_GT(on_mask.score, result.score);
 }
 
+// ExplainAwayNeighbours (neighbours.h) lives here for the scenes and banks of this suite.
+TEST_F(DetectTest, ANeighboursConfidentAnswerTakesItsPixelsOutOfAMergedMask) {
+  // Two boxes touch; one instance's mask merged both, the other's is its own. With the
+  // depth's regions off, the merged mask's solve alone answers poorly; read with its
+  // neighbour's confident answer, the pixels that answer explains are taken out, and the
+  // solve on the rest gives the left box's pose.
+  const Eigen::Isometry3d left = OnTable(Box(), -0.05, 0.0);
+  const Eigen::Isometry3d right = OnTable(Box(), -0.05 + Box().size.x() + 0.001, 0.0);
+  const Scene scene = RenderScene({&Box(), &Box()}, {left, right}, 13);
+  const cv::Mat own_right = Silhouette(Box(), right);
+  const std::vector<Instance> instances{{Box().id, Silhouette(Box(), left) | own_right}, {Box().id, own_right}};
+  const std::vector<const TemplateBank*> banks{&Box().bank, &Box().bank};
+  SolverOptions options = QuickSolver();
+  options.region_candidates = 0;
+  ThreadPool pool(2);
+  std::vector<PoseResult> answers;
+  for (size_t k = 0; k < 2; ++k) answers.push_back(EstimatePose(scene.frame, instances[k], *banks[k], options, &pool));
+  ASSERT_TRUE(answers[1].success) << answers[1].message;
+  ASSERT_GE(answers[1].confidence, options.region_search_confidence) << "S " << answers[1].score;
+  EXPECT_TRUE(answers[0].stages.mask_wider_than_object);
+  const std::vector<PoseResult> first = answers;
+  ExplainAwayNeighbours(scene.frame, instances, banks, options, &pool, &answers);
+  ASSERT_TRUE(answers[0].success) << answers[0].message;
+  EXPECT_GT(answers[0].stages.neighbour_pixels, cv::countNonZero(own_right) / 2);
+  EXPECT_TRUE(answers[0].stages.neighbour_answer_chosen);
+  EXPECT_GT(answers[0].stages.neighbours_ms, 0.0);
+  EXPECT_LT(answers[0].score, first[0].score);
+  const double add = ComputeAdd(answers[0].cam_from_object, left, Box().mesh.vertices);
+  EXPECT_LT(add, 0.1 * Box().bank.diameter_m) << "ADD " << add * 1000 << " mm, S " << answers[0].score;
+  EXPECT_GT(answers[0].mask_iou, 0.3);  // with the merged mask the caller gave
+  EXPECT_LT(answers[0].mask_iou, 0.7);
+  // The confident answer is left as it was.
+  EXPECT_EQ(answers[1].stages.neighbour_pixels, 0);
+  EXPECT_TRUE(answers[1].cam_from_object.isApprox(first[1].cam_from_object));
+
+  // The order of the instances does not matter.
+  std::vector<PoseResult> swapped{first[1], first[0]};
+  ExplainAwayNeighbours(scene.frame, {instances[1], instances[0]}, {banks[1], banks[0]}, options, &pool, &swapped);
+  EXPECT_TRUE(swapped[1].cam_from_object.isApprox(answers[0].cam_from_object));
+  EXPECT_EQ(swapped[1].score, answers[0].score);
+
+  // Off, the answers stand; sizes that disagree are named.
+  SolverOptions off = options;
+  off.explain_neighbours = false;
+  std::vector<PoseResult> kept = first;
+  ExplainAwayNeighbours(scene.frame, instances, banks, off, &pool, &kept);
+  EXPECT_EQ(kept[0].stages.neighbour_pixels, 0);
+  EXPECT_EQ(kept[0].score, first[0].score);
+  std::vector<PoseResult> one{first[0]};
+  try {
+    ExplainAwayNeighbours(scene.frame, instances, banks, options, &pool, &one);
+    ADD_FAILURE() << "no error for 2 instances and 1 answer";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("1 answers"), std::string::npos) << e.what();
+  }
+}
+
 TEST_F(DetectTest, AnEmptyTableGivesNoAnswerAndSolvesNothing) {
   const Scene scene = RenderScene({}, {}, 5);
   ThreadPool pool(2);
@@ -318,6 +376,9 @@ TEST(SolverOptions, TheDepthRegionOptionsAreChecked) {
   options = SolverOptions();
   options.region_search_confidence = 1.5;
   EXPECT_NE(options.Check().find("region_search_confidence"), std::string::npos) << options.Check();
+  options = SolverOptions();
+  options.neighbour_min_fraction = 0.0;
+  EXPECT_NE(options.Check().find("neighbour_min_fraction"), std::string::npos) << options.Check();
 }
 
 TEST(DetectOptions, CheckNamesTheBadField) {

@@ -35,6 +35,7 @@ std::string SolverOptions::Check() const {
   if (num_hypotheses < 1) out << "SolverOptions.num_hypotheses must be >= 1 (got " << num_hypotheses << ")";
   else if (region_candidates < 0 || region_candidates > 16) out << "SolverOptions.region_candidates must be in [0, 16] (got " << region_candidates << ")";
   else if (!(region_search_confidence >= 0.0 && region_search_confidence <= 1.0)) out << "SolverOptions.region_search_confidence must be in [0, 1] (got " << region_search_confidence << ")";
+  else if (!(neighbour_min_fraction > 0.0 && neighbour_min_fraction <= 1.0)) out << "SolverOptions.neighbour_min_fraction must be in (0, 1] (got " << neighbour_min_fraction << ")";
   else if (max_search_regions < 0 || max_search_regions > 8) out << "SolverOptions.max_search_regions must be in [0, 8] (got " << max_search_regions << ")";
   else if (max_observed_points < 10) out << "SolverOptions.max_observed_points must be >= 10 (got " << max_observed_points << ")";
   else if (max_source_points < 10) out << "SolverOptions.max_source_points must be >= 10 (got " << max_source_points << ")";
@@ -71,7 +72,8 @@ std::vector<StageTime> StageTimes(const StageReport& s) {
   return {{"prepare", s.prepare_ms},     {"features", s.features_ms},       {"match", s.match_ms},
           {"pnp", s.pnp_ms},             {"observable", s.observable_ms},   {"icp", s.icp_ms},
           {"mhpo", s.mhpo_ms},           {"post_refine", s.post_refine_ms}, {"finalists", s.finalists_ms},
-          {"mask_refine", s.mask_refine_ms}, {"depth_regions", s.depth_regions_ms}, {"total", s.total_ms}};
+          {"mask_refine", s.mask_refine_ms}, {"depth_regions", s.depth_regions_ms},
+          {"neighbours", s.neighbours_ms},       {"total", s.total_ms}};
 }
 
 double ConfidenceFromScore(const SolverOptions& options, double score, bool ambiguous) {

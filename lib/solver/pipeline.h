@@ -73,6 +73,13 @@ struct SolverOptions {
   /// missed most of the object can hold the object's region whole without spanning more
   /// than it. 0 = only for masks wider than the object.
   double region_search_confidence = 0.5;
+  /// A frame's instances read together (ExplainAwayNeighbours, neighbours.h; kDepth): an
+  /// instance whose mask holds more than the object, is a box, or whose answer is unsure is
+  /// solved again on its mask less the pixels the confident answers of lower S_A of the
+  /// frame's other instances explain, when they explain at least `neighbour_min_fraction`
+  /// of its mask; the lower S_A wins. Callers that solve one instance at a time ignore it.
+  bool explain_neighbours = true;
+  double neighbour_min_fraction = 0.05;
   /// The mask refined with the pose (kDepth): after the solve, ICP + MHPO from T_A on the
   /// mask T_A implies (CorrectedMask), accepted when S with the caller's mask as evidence
   /// is lower; repeated while it improves, at most this many times (0 = off).
@@ -239,12 +246,16 @@ struct StageReport {
   int depth_regions_solved = 0;
   bool depth_region_chosen = false;
   double mask_answer_score = 2.0;  ///< S_A of the answer on the mask itself, before the regions
+  /// ExplainAwayNeighbours: pixels of the caller's mask the frame's other, more confident
+  /// answers explain (0 = not solved again), and whether the solve without them gave T_A.
+  int neighbour_pixels = 0;
+  bool neighbour_answer_chosen = false;
   double best_quality = 0.0;       ///< best Q_j
   double best_e_obs = 1.0;         ///< best E_obs among PnP poses
   double best_s_after_icp = 2.0;   ///< best S after ICP
   double prepare_ms = 0.0, features_ms = 0.0, match_ms = 0.0, pnp_ms = 0.0,
          observable_ms = 0.0, icp_ms = 0.0, mhpo_ms = 0.0, post_refine_ms = 0.0, finalists_ms = 0.0,
-         mask_refine_ms = 0.0, depth_regions_ms = 0.0, total_ms = 0.0;
+         mask_refine_ms = 0.0, depth_regions_ms = 0.0, neighbours_ms = 0.0, total_ms = 0.0;
   int distinct_finalists = 0;         ///< finalists left after merging poses equal modulo symmetry
   int appearance_compared = 0;        ///< finalists whose appearance was scored
   bool appearance_changed = false;    ///< appearance replaced the lowest-S pose as T_A

@@ -1,0 +1,98 @@
+#include "solver/neighbours.h"
+
+#include <algorithm>
+#include <string>
+#include <utility>
+
+#include <opencv2/core.hpp>
+
+#include "core/error.h"
+#include "core/timer.h"
+#include "solver/region.h"
+
+namespace g6d {
+
+namespace {
+
+// Whether answer i is worth solving again without its neighbours' pixels: its mask holds
+// more than the object, is a box, or its answer is unsure (the same reasons the depth's
+// regions are searched for, depth_regions.cc).
+bool Doubtful(const PoseResult& answer, const SolverOptions& options) {
+  const StageReport& s = answer.stages;
+  if (!answer.success) return answer.termination == Termination::kNoHypothesis;
+  return s.mask_wider_than_object || s.mask_is_box || answer.confidence < options.region_search_confidence;
+}
+
+}  // namespace
+
+void ExplainAwayNeighbours(const Frame& frame, const std::vector<Instance>& instances,
+                           const std::vector<const TemplateBank*>& banks, const SolverOptions& options,
+                           Executor* executor, std::vector<PoseResult>* answers) {
+  if (instances.size() != banks.size() || instances.size() != answers->size()) {
+    throw Error("ExplainAwayNeighbours: " + std::to_string(instances.size()) + " instances, " +
+                std::to_string(banks.size()) + " banks and " + std::to_string(answers->size()) +
+                " answers (must be equal)");
+  }
+  if (!options.explain_neighbours || options.mask_trust != MaskTrust::kDepth || instances.size() < 2) return;
+  const std::vector<PoseResult>& first = *answers;  // every re-solve reads the first pass only
+  std::vector<PoseResult> second(first.size());
+  std::vector<char> replaced(first.size(), 0);
+  for (size_t i = 0; i < instances.size(); ++i) {
+    const Instance& instance = instances[i];
+    if (banks[i] == nullptr || !Doubtful(first[i], options)) continue;
+    if (instance.mask.empty() || instance.mask.type() != CV_8U || instance.mask.size() != frame.depth.size()) continue;
+    const Stopwatch watch;
+    const cv::Mat given = instance.mask > 0;
+    // The pixels the confident answers of lower S_A of the other instances imply.
+    cv::Mat explained = cv::Mat::zeros(given.size(), CV_8U);
+    for (size_t j = 0; j < first.size(); ++j) {
+      const PoseResult& other = first[j];
+      if (j == i || !other.success || other.confidence < options.region_search_confidence) continue;
+      if (first[i].success && !(other.score < first[i].score)) continue;
+      if (other.corrected_mask.size() != given.size() || other.corrected_mask.type() != CV_8U) continue;
+      explained |= other.corrected_mask;
+    }
+    explained &= given;
+    const int given_pixels = cv::countNonZero(given);
+    const int explained_pixels = cv::countNonZero(explained);
+    if (given_pixels == 0 || explained_pixels < options.neighbour_min_fraction * given_pixels) continue;
+    Instance rest{instance.object_id, given & ~explained};
+    PoseResult again = EstimatePose(frame, rest, *banks[i], options, executor);
+    const double ms = watch.ElapsedMs();
+    if (again.success && (!first[i].success || again.score < first[i].score)) {
+      // The answer's counts and poses are its own solve's; the times are of the work this
+      // instance cost: the first solve, then this one (neighbours_ms).
+      StageReport& s = again.stages;
+      const StageReport& f = first[i].stages;
+      s.prepare_ms = f.prepare_ms;
+      s.features_ms = f.features_ms;
+      s.match_ms = f.match_ms;
+      s.pnp_ms = f.pnp_ms;
+      s.observable_ms = f.observable_ms;
+      s.icp_ms = f.icp_ms;
+      s.mhpo_ms = f.mhpo_ms;
+      s.post_refine_ms = f.post_refine_ms;
+      s.finalists_ms = f.finalists_ms;
+      s.mask_refine_ms = f.mask_refine_ms;
+      s.depth_regions_ms = f.depth_regions_ms;
+      s.mask_given_pixels = f.mask_given_pixels;
+      s.mask_wider_than_object = f.mask_wider_than_object;
+      s.mask_is_box = f.mask_is_box;
+      s.neighbour_answer_chosen = true;
+      again.truncated = again.truncated || first[i].truncated;
+      again.mask_iou = MaskIntersectionOverUnion(again.corrected_mask, given);
+      second[i] = std::move(again);
+    } else {
+      second[i] = first[i];
+    }
+    second[i].stages.neighbour_pixels = explained_pixels;
+    second[i].stages.neighbours_ms = ms;
+    second[i].stages.total_ms = first[i].stages.total_ms + ms;
+    replaced[i] = 1;
+  }
+  for (size_t i = 0; i < first.size(); ++i) {
+    if (replaced[i]) (*answers)[i] = std::move(second[i]);
+  }
+}
+
+}  // namespace g6d

@@ -1,0 +1,37 @@
+#pragma once
+/// @file neighbours.h
+/// A frame's instances read together: pixels of one instance's mask that a more confident
+/// neighbour's answer explains are that neighbour's, not the instance's.
+///
+/// A segmenter that merges two touching objects, or a detector's box over a neighbour,
+/// gives a mask the depth alone often cannot split: the objects touch at the same depth,
+/// and S, read on that mask, prefers a pose that covers the neighbour too. When the
+/// neighbour is itself an instance of the same request and its answer is confident, the
+/// mask its pose implies (PoseResult::corrected_mask: its silhouette where the depth agrees)
+/// says which pixels are its own. The instance is solved again on its mask less those
+/// pixels, and that answer replaces the first when its S_A is lower.
+
+#include <vector>
+
+#include "core/executor.h"
+#include "core/frame.h"
+#include "solver/pipeline.h"
+#include "templates/template_bank.h"
+
+namespace g6d {
+
+/// Second pass over a frame's answers (SolverOptions::explain_neighbours, MaskTrust::kDepth):
+/// `instances[i]`, solved with `banks[i]` into `(*answers)[i]` (EstimatePose, or any solve
+/// that fills corrected_mask), is solved again on its mask less the pixels of the confident
+/// answers of lower S_A of the other instances (confidence >= region_search_confidence),
+/// when its mask holds more than the object (a merged mask, a box) or its answer is unsure,
+/// and the neighbours explain at least `SolverOptions::neighbour_min_fraction` of its mask.
+/// A lower S_A replaces the answer (StageReport::neighbour_pixels, neighbour_answer_chosen,
+/// neighbours_ms). Every re-solve reads only the first pass's answers, so the result does
+/// not depend on the instances' order. The sizes must agree (else g6d::Error); never
+/// throws for bad data in an instance (its answer stands).
+void ExplainAwayNeighbours(const Frame& frame, const std::vector<Instance>& instances,
+                           const std::vector<const TemplateBank*>& banks, const SolverOptions& options,
+                           Executor* executor, std::vector<PoseResult>* answers);
+
+}  // namespace g6d
