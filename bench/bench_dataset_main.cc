@@ -422,7 +422,7 @@ int main(int argc, char** argv) {
         for (size_t k = 0; k < frame_instances.size(); ++k) {
           frame_results.push_back(g6d::EstimatePose(frame, frame_instances[k], *frame_banks[k], options, &pool));
         }
-        g6d::ExplainAwayNeighbours(frame, frame_instances, frame_banks, options, &pool, &frame_results);
+        g6d::ExplainAwayNeighbours(frame, frame_instances, frame_banks, {}, options, &pool, &frame_results);
         for (size_t k = 0; k < gt_indices.size(); ++k) frame_answers[gt_indices[k]] = std::move(frame_results[k]);
       }
       int instances = 0;

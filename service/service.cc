@@ -414,16 +414,18 @@ void Service::ExplainNeighbours(const Job& job, const std::vector<Instance>& ins
   std::vector<Instance> masked;
   std::vector<const TemplateBank*> banks;
   std::vector<PoseResult> results;
+  std::vector<char> detected;  // a tracked answer keeps its pose (and explains its pixels)
   for (size_t k = 0; k < num_masked; ++k) {
     if (failures[k]) continue;
     solved.push_back(k);
     masked.push_back(instances[k]);
     banks.push_back(frame_store_->banks.at(instances[k].object_id).get());
     results.push_back((*answers)[k].result);
+    detected.push_back((*answers)[k].from_track ? 0 : 1);
   }
   if (solved.size() < 2 || abandon_) return;
   try {
-    ExplainAwayNeighbours(job.decoded.frame, masked, banks, solver_options_, pool_.get(), &results);
+    ExplainAwayNeighbours(job.decoded.frame, masked, banks, detected, solver_options_, pool_.get(), &results);
   } catch (const std::exception& e) {
     spdlog::warn("frame seq {}: reading the instances together failed ({}); each answer stands", job.header.seq,
                  e.what());

@@ -265,7 +265,7 @@ TEST_F(DetectTest, ANeighboursConfidentAnswerTakesItsPixelsOutOfAMergedMask) {
   ASSERT_GE(answers[1].confidence, options.region_search_confidence) << "S " << answers[1].score;
   EXPECT_TRUE(answers[0].stages.mask_wider_than_object);
   const std::vector<PoseResult> first = answers;
-  ExplainAwayNeighbours(scene.frame, instances, banks, options, &pool, &answers);
+  ExplainAwayNeighbours(scene.frame, instances, banks, {}, options, &pool, &answers);
   ASSERT_TRUE(answers[0].success) << answers[0].message;
   EXPECT_GT(answers[0].stages.neighbour_pixels, cv::countNonZero(own_right) / 2);
   EXPECT_TRUE(answers[0].stages.neighbour_answer_chosen);
@@ -281,20 +281,25 @@ TEST_F(DetectTest, ANeighboursConfidentAnswerTakesItsPixelsOutOfAMergedMask) {
 
   // The order of the instances does not matter.
   std::vector<PoseResult> swapped{first[1], first[0]};
-  ExplainAwayNeighbours(scene.frame, {instances[1], instances[0]}, {banks[1], banks[0]}, options, &pool, &swapped);
+  ExplainAwayNeighbours(scene.frame, {instances[1], instances[0]}, {banks[1], banks[0]}, {}, options, &pool, &swapped);
   EXPECT_TRUE(swapped[1].cam_from_object.isApprox(answers[0].cam_from_object));
   EXPECT_EQ(swapped[1].score, answers[0].score);
 
-  // Off, the answers stand; sizes that disagree are named.
+  // Off, or the instance not to be solved again (a tracked answer), the answers stand;
+  // sizes that disagree are named.
   SolverOptions off = options;
   off.explain_neighbours = false;
   std::vector<PoseResult> kept = first;
-  ExplainAwayNeighbours(scene.frame, instances, banks, off, &pool, &kept);
+  ExplainAwayNeighbours(scene.frame, instances, banks, {}, off, &pool, &kept);
+  EXPECT_EQ(kept[0].stages.neighbour_pixels, 0);
+  EXPECT_EQ(kept[0].score, first[0].score);
+  kept = first;
+  ExplainAwayNeighbours(scene.frame, instances, banks, {0, 1}, options, &pool, &kept);
   EXPECT_EQ(kept[0].stages.neighbour_pixels, 0);
   EXPECT_EQ(kept[0].score, first[0].score);
   std::vector<PoseResult> one{first[0]};
   try {
-    ExplainAwayNeighbours(scene.frame, instances, banks, options, &pool, &one);
+    ExplainAwayNeighbours(scene.frame, instances, banks, {}, options, &pool, &one);
     ADD_FAILURE() << "no error for 2 instances and 1 answer";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("1 answers"), std::string::npos) << e.what();

@@ -26,12 +26,13 @@ bool Doubtful(const PoseResult& answer, const SolverOptions& options) {
 }  // namespace
 
 void ExplainAwayNeighbours(const Frame& frame, const std::vector<Instance>& instances,
-                           const std::vector<const TemplateBank*>& banks, const SolverOptions& options,
-                           Executor* executor, std::vector<PoseResult>* answers) {
-  if (instances.size() != banks.size() || instances.size() != answers->size()) {
+                           const std::vector<const TemplateBank*>& banks, const std::vector<char>& may_solve_again,
+                           const SolverOptions& options, Executor* executor, std::vector<PoseResult>* answers) {
+  if (instances.size() != banks.size() || instances.size() != answers->size() ||
+      !(may_solve_again.empty() || may_solve_again.size() == instances.size())) {
     throw Error("ExplainAwayNeighbours: " + std::to_string(instances.size()) + " instances, " +
-                std::to_string(banks.size()) + " banks and " + std::to_string(answers->size()) +
-                " answers (must be equal)");
+                std::to_string(banks.size()) + " banks, " + std::to_string(answers->size()) + " answers and " +
+                std::to_string(may_solve_again.size()) + " may_solve_again flags (must be equal; no flags = all)");
   }
   if (!options.explain_neighbours || options.mask_trust != MaskTrust::kDepth || instances.size() < 2) return;
   const std::vector<PoseResult>& first = *answers;  // every re-solve reads the first pass only
@@ -39,7 +40,9 @@ void ExplainAwayNeighbours(const Frame& frame, const std::vector<Instance>& inst
   std::vector<char> replaced(first.size(), 0);
   for (size_t i = 0; i < instances.size(); ++i) {
     const Instance& instance = instances[i];
-    if (banks[i] == nullptr || !Doubtful(first[i], options)) continue;
+    if (banks[i] == nullptr || (!may_solve_again.empty() && !may_solve_again[i]) || !Doubtful(first[i], options)) {
+      continue;
+    }
     if (instance.mask.empty() || instance.mask.type() != CV_8U || instance.mask.size() != frame.depth.size()) continue;
     const Stopwatch watch;
     const cv::Mat given = instance.mask > 0;

@@ -28,10 +28,13 @@ namespace g6d {
 /// and the neighbours explain at least `SolverOptions::neighbour_min_fraction` of its mask.
 /// A lower S_A replaces the answer (StageReport::neighbour_pixels, neighbour_answer_chosen,
 /// neighbours_ms). Every re-solve reads only the first pass's answers, so the result does
-/// not depend on the instances' order. The sizes must agree (else g6d::Error); never
-/// throws for bad data in an instance (its answer stands).
+/// not depend on the instances' order. `may_solve_again`: empty, or one flag per instance;
+/// an instance whose flag is 0 keeps its answer (the service's tracked answers: a tracked
+/// pose is not solved from scratch every frame) but still explains its pixels for the
+/// others. The sizes must agree (else g6d::Error); never throws for bad data in an instance
+/// (its answer stands).
 void ExplainAwayNeighbours(const Frame& frame, const std::vector<Instance>& instances,
-                           const std::vector<const TemplateBank*>& banks, const SolverOptions& options,
-                           Executor* executor, std::vector<PoseResult>* answers);
+                           const std::vector<const TemplateBank*>& banks, const std::vector<char>& may_solve_again,
+                           const SolverOptions& options, Executor* executor, std::vector<PoseResult>* answers);
 
 }  // namespace g6d
