@@ -3,7 +3,7 @@
 # ../shared/data (or DATA_DIR) with test_targets_bop19.json, run by g6d-bench-dataset at
 # K = 18 on 2 threads once per mask degradation (--degrade-masks: none, erode, dilate,
 # jitter, cut, merge, box; 6 px), then one markdown table: per mode and dataset the
-# ADD(-S)@0.1d recall, the p50 latency per instance and the mean IoU of the masks the
+# ADD(-S)@0.1d recall, BOP AR (g6d-eval), the p50 latency per instance and the mean IoU of the masks the
 # solver got with the GT visible masks, plus the YCB-Video recall pooled over ycbv_real
 # and ycbv_clutter.
 #
@@ -67,12 +67,19 @@ for name in ${DATASETS}; do
       exit 1
     fi
     echo "$(($(date +%s) - start))" > "${run}.seconds"
+    # BOP AR (VSD, MSSD, MSPD) of the answers.
+    if ! "${BUILD_DIR}/tools/g6d-eval" --dataset "${dataset}" --results "${run}.csv" --json "${run}.eval.json" \
+        ${adds_ids:+--adds-ids "${adds_ids}"} > "${run}.eval.txt" 2>&1; then
+      echo "[masks] ${name} ${mode}: g6d-eval failed (${run}.eval.txt):" >&2
+      tail -5 "${run}.eval.txt" >&2
+      exit 1
+    fi
     echo "[masks] ${name} ${mode}: $(awk -F' *[|] *' '/^[|] [*][*]all[*][*]/ {print "n " $3 ", ADD(-S) " $8 " %"; exit}' "${run}.txt") in $(cat "${run}.seconds") s"
   done
 done
 
 python3 - "${OUT}" "${DEGRADE_PX}" "${K}" "${THREADS}" "${DATASETS}" "${MODES}" <<'EOF' | tee "${OUT}/table.md"
-import os, re, sys
+import json, os, re, sys
 out, px, k, threads = sys.argv[1:5]
 datasets, modes = sys.argv[5].split(), sys.argv[6].split()
 
@@ -86,17 +93,18 @@ def report(name, mode):
         sys.exit(f"[masks] {base}.txt: no recall, latency or mask IoU summary (format changed?)")
     return {"n": int(all_row.group(1)), "recall": float(all_row.group(2).split("|")[-1]),
             "p50": float(total.group(1)), "iou": float(iou.group(1)), "empty": int(iou.group(2)),
+            "ar": json.load(open(base + ".eval.json"))["overall"]["ar"],
             "seconds": int(open(base + ".seconds").read())}
 
 runs = {(d, m): report(d, m) for d in datasets for m in modes}
 ycbv = [d for d in ("ycbv_real", "ycbv_clutter") if d in datasets]
-print(f"\n### Degraded masks, {px} px: ADD(-S)@0.1d recall, p50 ms per instance, mean mask IoU with the GT visible mask (K = {k}, {threads} threads)\n")
+print(f"\n### Degraded masks, {px} px: ADD(-S)@0.1d recall, BOP AR, p50 ms per instance, mean mask IoU with the GT visible mask (K = {k}, {threads} threads)\n")
 header = ["mode"]
 for d in datasets:
     n = runs[(d, modes[0])]["n"]
-    header += [f"{d} (n = {n}) ADD(-S) %", f"{d} p50 ms", f"{d} mask IoU"]
+    header += [f"{d} (n = {n}) ADD(-S) %", f"{d} AR", f"{d} p50 ms", f"{d} mask IoU"]
 if len(ycbv) == 2:
-    header.append("ycbv pooled ADD(-S) %")
+    header += ["ycbv pooled ADD(-S) %", "ycbv pooled AR"]
 header.append("run s")
 print("| " + " | ".join(header) + " |")
 print("|" + "---|" * len(header))
@@ -105,11 +113,13 @@ for m in modes:
     for d in datasets:
         r = runs[(d, m)]
         empty = f" ({r['empty']} empty)" if r["empty"] else ""
-        row += [f"{r['recall']:.1f}", f"{r['p50']:.0f}", f"{r['iou']:.3f}{empty}"]
+        row += [f"{r['recall']:.1f}", f"{r['ar']:.3f}", f"{r['p50']:.0f}", f"{r['iou']:.3f}{empty}"]
     if len(ycbv) == 2:
+        # Pooled over the targets of both sets (AR as a target-weighted mean).
         n = sum(runs[(d, m)]["n"] for d in ycbv)
         correct = sum(runs[(d, m)]["n"] * runs[(d, m)]["recall"] / 100.0 for d in ycbv)
-        row.append(f"{100.0 * correct / max(1, n):.1f}")
+        ar = sum(runs[(d, m)]["n"] * runs[(d, m)]["ar"] for d in ycbv)
+        row += [f"{100.0 * correct / max(1, n):.1f}", f"{ar / max(1, n):.3f}"]
     row.append(str(sum(runs[(d, m)]["seconds"] for d in datasets)))
     print("| " + " | ".join(row) + " |")
 EOF

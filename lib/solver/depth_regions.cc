@@ -66,28 +66,12 @@ PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, con
     PoseResult chosen = std::move(found.front().result);
     // The answer's stage counts and poses are its own solve's; the times are of the work
     // this instance cost: the solve on the mask, then the regions.
-    const StageReport& own = chosen.stages;
-    StageReport merged = own;
-    merged.prepare_ms = stages.prepare_ms;
-    merged.features_ms = stages.features_ms;
-    merged.match_ms = stages.match_ms;
-    merged.pnp_ms = stages.pnp_ms;
-    merged.observable_ms = stages.observable_ms;
-    merged.icp_ms = stages.icp_ms;
-    merged.mhpo_ms = stages.mhpo_ms;
-    merged.post_refine_ms = stages.post_refine_ms;
-    merged.finalists_ms = stages.finalists_ms;
-    merged.mask_refine_ms = stages.mask_refine_ms;
-    merged.depth_regions_ms = stages.depth_regions_ms;
+    CopyMaskSolveReport(stages, &chosen.stages);
+    StageReport& merged = chosen.stages;
     merged.total_ms = stages.total_ms;
-    merged.mask_given_pixels = stages.mask_given_pixels;
-    merged.mask_wider_than_object = stages.mask_wider_than_object;
-    merged.mask_too_thin = stages.mask_too_thin;
-    merged.mask_is_box = stages.mask_is_box;
     merged.depth_regions_solved = stages.depth_regions_solved;
     merged.depth_region_chosen = true;
     merged.mask_answer_score = stages.mask_answer_score;
-    chosen.stages = std::move(merged);
     chosen.truncated = chosen.truncated || on_mask.truncated;
     chosen.mask_iou = MaskIntersectionOverUnion(chosen.corrected_mask, instance.mask > 0);
     return chosen;

@@ -65,23 +65,8 @@ void ExplainAwayNeighbours(const Frame& frame, const std::vector<Instance>& inst
     if (again.success && (!first[i].success || again.score < first[i].score)) {
       // The answer's counts and poses are its own solve's; the times are of the work this
       // instance cost: the first solve, then this one (neighbours_ms).
-      StageReport& s = again.stages;
-      const StageReport& f = first[i].stages;
-      s.prepare_ms = f.prepare_ms;
-      s.features_ms = f.features_ms;
-      s.match_ms = f.match_ms;
-      s.pnp_ms = f.pnp_ms;
-      s.observable_ms = f.observable_ms;
-      s.icp_ms = f.icp_ms;
-      s.mhpo_ms = f.mhpo_ms;
-      s.post_refine_ms = f.post_refine_ms;
-      s.finalists_ms = f.finalists_ms;
-      s.mask_refine_ms = f.mask_refine_ms;
-      s.depth_regions_ms = f.depth_regions_ms;
-      s.mask_given_pixels = f.mask_given_pixels;
-      s.mask_wider_than_object = f.mask_wider_than_object;
-      s.mask_is_box = f.mask_is_box;
-      s.neighbour_answer_chosen = true;
+      CopyMaskSolveReport(first[i].stages, &again.stages);
+      again.stages.neighbour_answer_chosen = true;
       again.truncated = again.truncated || first[i].truncated;
       again.mask_iou = MaskIntersectionOverUnion(again.corrected_mask, given);
       second[i] = std::move(again);

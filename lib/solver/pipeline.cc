@@ -76,6 +76,24 @@ std::vector<StageTime> StageTimes(const StageReport& s) {
           {"neighbours", s.neighbours_ms},       {"total", s.total_ms}};
 }
 
+void CopyMaskSolveReport(const StageReport& from, StageReport* to) {
+  to->prepare_ms = from.prepare_ms;
+  to->features_ms = from.features_ms;
+  to->match_ms = from.match_ms;
+  to->pnp_ms = from.pnp_ms;
+  to->observable_ms = from.observable_ms;
+  to->icp_ms = from.icp_ms;
+  to->mhpo_ms = from.mhpo_ms;
+  to->post_refine_ms = from.post_refine_ms;
+  to->finalists_ms = from.finalists_ms;
+  to->mask_refine_ms = from.mask_refine_ms;
+  to->depth_regions_ms = from.depth_regions_ms;
+  to->mask_given_pixels = from.mask_given_pixels;
+  to->mask_wider_than_object = from.mask_wider_than_object;
+  to->mask_too_thin = from.mask_too_thin;
+  to->mask_is_box = from.mask_is_box;
+}
+
 double ConfidenceFromScore(const SolverOptions& options, double score, bool ambiguous) {
   if (!std::isfinite(score)) return 0.0;
   const double logit = options.confidence_bias + options.confidence_score_weight * score +

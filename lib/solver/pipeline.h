@@ -284,6 +284,13 @@ struct StageTime {
 /// observable, icp, mhpo, post_refine, finalists, total.
 std::vector<StageTime> StageTimes(const StageReport& stages);
 
+/// Copies the stage times of one solve on a mask (prepare_ms ... depth_regions_ms; not
+/// neighbours_ms or total_ms) and the mask's own findings (mask_given_pixels,
+/// mask_wider_than_object, mask_too_thin, mask_is_box) from `from` into *to: an answer taken
+/// from a later solve (a depth region's, one without the neighbours' pixels) reports the
+/// work its instance cost and the mask it was given.
+void CopyMaskSolveReport(const StageReport& from, StageReport* to);
+
 /// The estimate for one instance.
 struct PoseResult {
   bool success = false;
