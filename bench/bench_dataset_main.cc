@@ -9,6 +9,7 @@
 #include <map>
 #include <numeric>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <sys/resource.h>
@@ -383,6 +384,7 @@ int main(int argc, char** argv) {
     const bool frame_pass = !unknown_identity && options.explain_neighbours;
     std::pair<int, int> frame_pass_image{-1, -1};
     std::map<size_t, g6d::PoseResult> frame_answers;
+    std::map<size_t, std::pair<cv::Mat, bool>> frame_masks;  // the solver's mask, merged or not
     for (const g6d::BopTarget& target : dataset.targets) {
       if (!scenes.count(target.scene_id)) scenes.emplace(target.scene_id, g6d::LoadBopScene(dataset_dir, target.scene_id));
       const g6d::BopScene& scene = scenes.at(target.scene_id);
@@ -400,6 +402,7 @@ int main(int argc, char** argv) {
       if (frame_pass && frame_pass_image != std::make_pair(target.scene_id, target.im_id)) {
         frame_pass_image = {target.scene_id, target.im_id};
         frame_answers.clear();
+        frame_masks.clear();
         std::vector<size_t> gt_indices;
         std::vector<g6d::Instance> frame_instances;
         std::vector<const g6d::TemplateBank*> frame_banks;
@@ -413,9 +416,11 @@ int main(int argc, char** argv) {
             if (bop_frame.gt[gt_idx].obj_id != other.obj_id) continue;
             ++found;
             bool merged = false;
+            const cv::Mat mask = solver_mask_of(scene, bop_frame, other, gt_idx, &merged);
+            frame_masks[gt_idx] = {mask, merged};
             gt_indices.push_back(gt_idx);
             frame_banks.push_back(&objects.at(other.obj_id).bank);
-            frame_instances.push_back({frame_banks.back()->object_id, solver_mask_of(scene, bop_frame, other, gt_idx, &merged)});
+            frame_instances.push_back({frame_banks.back()->object_id, mask});
           }
         }
         std::vector<g6d::PoseResult> frame_results;
@@ -434,7 +439,12 @@ int main(int argc, char** argv) {
         const cv::Mat gt_mask =
             g6d::LoadBopMaskVisib(scene, target.im_id, static_cast<int>(gt_idx));
         bool merged = false;
-        const cv::Mat solver_mask = solver_mask_of(scene, bop_frame, target, gt_idx, &merged);
+        cv::Mat solver_mask;
+        if (frame_pass) {
+          std::tie(solver_mask, merged) = frame_masks.at(gt_idx);  // made for the frame's solve
+        } else {
+          solver_mask = solver_mask_of(scene, bop_frame, target, gt_idx, &merged);
+        }
         double mask_iou = 1.0;
         if (degrading) {
           mask_iou = g6d::MaskIou(solver_mask, gt_mask);

@@ -12,20 +12,25 @@
 
 namespace g6d {
 
+bool AnswerInDoubt(const PoseResult& answer, const SolverOptions& options) {
+  if (!answer.success) return answer.termination == Termination::kNoHypothesis;
+  const StageReport& s = answer.stages;
+  return s.mask_wider_than_object || s.mask_is_box || answer.confidence < options.region_search_confidence;
+}
+
 PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, const TemplateBank& bank,
                                const SolverOptions& options, Executor* executor, PoseResult on_mask) {
-  // Unsure: a poor answer, no hypothesis at all, or a mask too thin to solve on (a refusal
+  // In doubt, or a mask too thin to solve on: it still says where the object is (a refusal
   // for any other reason, e.g. reject_border_masks, stands).
-  const bool unsure = on_mask.success ? on_mask.confidence < options.region_search_confidence
-                                      : on_mask.termination == Termination::kNoHypothesis ||
-                                            (on_mask.termination == Termination::kBadInput && on_mask.stages.mask_too_thin);
+  const bool search = AnswerInDoubt(on_mask, options) ||
+                      (on_mask.termination == Termination::kBadInput && on_mask.stages.mask_too_thin);
   // A mask with too few pixels with depth (an eroded sliver) still says where the object
   // is; a mask of the wrong size or type says nothing, and a bad frame none of the regions
   // can use either (its message stays the answer's).
   const bool usable = instance.mask.size() == frame.depth.size() && instance.mask.type() == CV_8U &&
                       frame.rgb.size() == frame.depth.size() && cv::countNonZero(instance.mask) > 0;
   if (options.mask_trust != MaskTrust::kDepth || options.region_candidates <= 0 || on_mask.cut_short || !usable ||
-      !(on_mask.stages.mask_wider_than_object || on_mask.stages.mask_is_box || unsure)) {
+      !search) {
     return on_mask;
   }
   const Stopwatch watch;

@@ -23,6 +23,13 @@ namespace g6d {
 /// inside it gives a lower S_A, that answer, with the time, the count
 /// of regions solved and `depth_region_chosen` in its stages and its corrected mask's IoU
 /// with the caller's mask. Off when options.region_candidates is 0. Never throws.
+/// Whether an answer on a mask is in doubt, so that a second reading of the mask is worth
+/// a solve (the depth's regions here, the neighbours' pixels taken out in neighbours.h): a
+/// success whose mask holds more than the object (mask_wider_than_object), is a box
+/// (mask_is_box) or whose confidence is under options.region_search_confidence; a failure
+/// for want of any hypothesis. Other refusals (bad input, reject_border_masks) stand.
+bool AnswerInDoubt(const PoseResult& answer, const SolverOptions& options);
+
 PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, const TemplateBank& bank,
                                const SolverOptions& options, Executor* executor, PoseResult on_mask);
 

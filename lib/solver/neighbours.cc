@@ -8,22 +8,10 @@
 
 #include "core/error.h"
 #include "core/timer.h"
+#include "solver/depth_regions.h"
 #include "solver/region.h"
 
 namespace g6d {
-
-namespace {
-
-// Whether answer i is worth solving again without its neighbours' pixels: its mask holds
-// more than the object, is a box, or its answer is unsure (the same reasons the depth's
-// regions are searched for, depth_regions.cc).
-bool Doubtful(const PoseResult& answer, const SolverOptions& options) {
-  const StageReport& s = answer.stages;
-  if (!answer.success) return answer.termination == Termination::kNoHypothesis;
-  return s.mask_wider_than_object || s.mask_is_box || answer.confidence < options.region_search_confidence;
-}
-
-}  // namespace
 
 void ExplainAwayNeighbours(const Frame& frame, const std::vector<Instance>& instances,
                            const std::vector<const TemplateBank*>& banks, const std::vector<char>& may_solve_again,
@@ -40,7 +28,7 @@ void ExplainAwayNeighbours(const Frame& frame, const std::vector<Instance>& inst
   std::vector<char> replaced(first.size(), 0);
   for (size_t i = 0; i < instances.size(); ++i) {
     const Instance& instance = instances[i];
-    if (banks[i] == nullptr || (!may_solve_again.empty() && !may_solve_again[i]) || !Doubtful(first[i], options)) {
+    if (banks[i] == nullptr || (!may_solve_again.empty() && !may_solve_again[i]) || !AnswerInDoubt(first[i], options)) {
       continue;
     }
     if (instance.mask.empty() || instance.mask.type() != CV_8U || instance.mask.size() != frame.depth.size()) continue;
