@@ -135,6 +135,10 @@ int main(int argc, char** argv) {
   int icp_point_iterations = -1;
   app.add_option("--icp-point-iterations", icp_point_iterations, "point-to-plane ICP: the first N iterations are point-to-point (default: solver's)");
   app.add_flag("--no-appearance", no_appearance, "no appearance tie-break among finalists (ablation)");
+  bool no_ppf = false;
+  app.add_flag("--no-ppf", no_ppf, "no point-pair-feature hypotheses: ORB-PnP alone (ablation)");
+  int ppf_stride = 0;
+  app.add_option("--ppf-stride", ppf_stride, "point-pair features: every N-th scene point is a reference (0 = default)");
   std::string mask_trust = "depth";
   app.add_option("--mask-trust", mask_trust, "how the mask is read: depth (evidence checked by the depth) or exact (the paper's; ablation)")
       ->capture_default_str();
@@ -250,6 +254,8 @@ int main(int argc, char** argv) {
     options.reject_border_masks = reject_border;
     options.budget_ms = budget_ms;
     if (no_appearance) options.appearance_tiebreak = false;
+    if (no_ppf) options.use_ppf = false;
+    if (ppf_stride > 0) options.ppf.reference_stride = ppf_stride;
     if (no_occlusion) options.score.occlusion_margin_m = 0.0;
     options.mask_trust = g6d::ParseMaskTrust(mask_trust);
     options.split_merged_at_creases = crease_split;
@@ -322,7 +328,7 @@ int main(int argc, char** argv) {
                    "scene_id,im_id,obj_id,gt_idx,success,score,confidence,iou,depth_residual,error_d,correct,total_ms,"
                    "truncated,ambiguous,runner_up_gap,appearance_valid,appearance_agreement,appearance_changed,"
                    "gt_score,gt_iou,gt_depth_residual,gt_occluded_px,sets_tried,pnp_hypotheses,pnp_merged,kept,"
-                   "icp_iterations,answer_set_rank,answer_quality_ratio%s\n",
+                   "icp_iterations,answer_set_rank,answer_quality_ratio,ppf_hypotheses,ppf_distinct,answer_from_ppf%s\n",
                    unknown_identity ? ",chosen_id,right_identity,true_object_score,best_other_id,best_other_score,"
                                       "candidates_solved,screened_out,identify_ms"
                                     : "");
@@ -556,6 +562,7 @@ int main(int argc, char** argv) {
           }
           std::fprintf(records, "%d,%d,%d,%d,%d,%d,%.4f", s.sets_tried, s.pnp_hypotheses, s.pnp_merged, s.kept_hypotheses,
                        s.icp_iterations, s.answer_set_rank, s.answer_quality_ratio);
+          std::fprintf(records, ",%d,%d,%d", s.ppf_hypotheses, s.ppf_distinct, s.answer_from_ppf ? 1 : 0);
           if (unknown_identity) {
             // The true object's S and the best other object's: the margin identity was decided by.
             double true_score = 2.0, other_score = 2.0;
@@ -581,6 +588,9 @@ int main(int argc, char** argv) {
         counts["sets tried"].push_back(s.sets_tried);
         counts["PnP poses"].push_back(s.pnp_hypotheses);
         counts["distinct PnP poses"].push_back(s.pnp_hypotheses - s.pnp_merged);
+        counts["PPF poses"].push_back(s.ppf_hypotheses);
+        counts["PPF poses new to PnP"].push_back(s.ppf_distinct);
+        counts["answers from a PPF pose"].push_back(s.answer_from_ppf ? 1 : 0);
         counts["kept (K)"].push_back(s.kept_hypotheses);
         counts["ICP iterations"].push_back(s.icp_iterations);
         counts["ICP runs at the iteration limit"].push_back(s.icp_runs_at_max);

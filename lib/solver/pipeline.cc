@@ -30,6 +30,7 @@ std::string SolverOptions::Check() const {
   if (bad.empty()) bad = appearance.Check();
   if (bad.empty()) bad = region.Check();
   if (bad.empty()) bad = segments.Check();
+  if (bad.empty()) bad = ppf.Check();
   if (!bad.empty()) return bad;
   std::ostringstream out;
   if (num_hypotheses < 1) out << "SolverOptions.num_hypotheses must be >= 1 (got " << num_hypotheses << ")";
@@ -70,7 +71,7 @@ const char* TerminationName(Termination termination) {
 
 std::vector<StageTime> StageTimes(const StageReport& s) {
   return {{"prepare", s.prepare_ms},     {"features", s.features_ms},       {"match", s.match_ms},
-          {"pnp", s.pnp_ms},             {"observable", s.observable_ms},   {"icp", s.icp_ms},
+          {"pnp", s.pnp_ms},             {"ppf", s.ppf_ms},                 {"observable", s.observable_ms},   {"icp", s.icp_ms},
           {"mhpo", s.mhpo_ms},           {"post_refine", s.post_refine_ms}, {"finalists", s.finalists_ms},
           {"mask_refine", s.mask_refine_ms}, {"depth_regions", s.depth_regions_ms},
           {"neighbours", s.neighbours_ms},       {"total", s.total_ms}};
@@ -376,7 +377,8 @@ class PoseComparer {
   double reach_ = 0.0;
 };
 
-// A pose hypothesis and the rank (by Q_j, 0 = best) of the correspondence set it came from.
+// A pose hypothesis and the rank (by Q_j, 0 = best) of the correspondence set it came from
+// (-1: a point-pair-feature pose).
 struct Hypothesis {
   Eigen::Isometry3d cam_from_object;
   int set_rank = 0;
@@ -658,6 +660,35 @@ std::string RunSearchStages(const SolveContext& c, Search* search) {
   return "";
 }
 
+// Point-pair-feature voting on the first search region's depth (the mask the depth
+// corrected and grew): its poses join the PnP hypotheses, those equal to one already there
+// (modulo the symmetries) merged into it.
+void RunPpfStage(const SolveContext& c, Search* search) {
+  if (!c.options.use_ppf || c.bank.ppf.empty() || c.observation.search_regions.empty()) return;
+  if (!search->hypotheses.empty() && c.clock->OutOfTime(kPnpBudgetShare)) return;
+  StageReport& stages = *c.stages;
+  const Stopwatch watch;
+  const PpfModel& model = c.bank.ppf;
+  const PpfScene scene = MakePpfScene(c.frame.camera, c.observation.depth, c.observation.search_regions.front().mask,
+                                      model.step_m, model.options.normal_cluster_deg, c.options.ppf);
+  PpfReport report;
+  const std::vector<PpfPose> poses = VotePpfPoses(model, scene, c.bank.diameter_m, c.options.ppf, c.executor, &report);
+  stages.ppf_scene_points = report.scene_points;
+  stages.ppf_hypotheses = static_cast<int>(poses.size());
+  const double distinct_m = c.options.distinct_pose_fraction * c.bank.diameter_m;
+  const size_t pnp_count = search->hypotheses.size();
+  for (const PpfPose& pose : poses) {
+    bool distinct = true;
+    for (size_t k = 0; k < pnp_count && distinct && c.options.merge_pnp_poses; ++k) {
+      distinct = !c.comparer.Within(pose.cam_from_object, search->hypotheses[k].cam_from_object, distinct_m);
+    }
+    if (!distinct) continue;
+    search->hypotheses.push_back(Hypothesis{pose.cam_from_object, -1});
+    ++stages.ppf_distinct;
+  }
+  stages.ppf_ms = watch.ElapsedMs();
+}
+
 // Stage 3 with its report: the K hypotheses kept by E_obs.
 std::vector<Hypothesis> RunObservableStage(const SolveContext& c, const std::vector<Hypothesis>& hypotheses) {
   const Stopwatch watch;
@@ -768,8 +799,11 @@ void RunFinalistStage(const SolveContext& c, std::vector<Finalist> finalists, co
   stages.finalists_ms = watch.ElapsedMs();
   if (stages.answer_hypothesis >= 0) {
     const int rank = kept[static_cast<size_t>(stages.answer_hypothesis)].set_rank;
-    stages.answer_set_rank = rank;
-    stages.answer_quality_ratio = sets[static_cast<size_t>(rank)].quality / sets.front().quality;
+    stages.answer_from_ppf = rank < 0;
+    if (rank >= 0) {
+      stages.answer_set_rank = rank;
+      stages.answer_quality_ratio = sets[static_cast<size_t>(rank)].quality / sets.front().quality;
+    }
   }
 }
 
@@ -835,7 +869,14 @@ PoseResult EstimatePoseOnMask(const Frame& frame, const Instance& instance, cons
 
     Search search;  // stages 1 and 2: features, template matching, MSAC-PnP
     const std::string no_hypothesis = RunSearchStages(context, &search);
-    if (!no_hypothesis.empty()) return fail(Termination::kNoHypothesis, no_hypothesis);
+    RunPpfStage(context, &search);  // texture-free hypotheses from the depth
+    if (search.hypotheses.empty()) {
+      return fail(Termination::kNoHypothesis,
+                  no_hypothesis.empty() ? std::string("no hypothesis from ORB-PnP or point-pair features")
+                                        : no_hypothesis + (context.bank.ppf.empty() || !options.use_ppf
+                                                               ? std::string()
+                                                               : "; point-pair features gave no pose"));
+    }
     std::vector<Hypothesis> kept = RunObservableStage(context, search.hypotheses);  // stage 3 (eq. 7)
     const IcpOutcome icp = RunIcpStage(context, &kept);                              // stage 4
     const MhpoTarget target = MakeMhpoTarget(observation.refine_grid, observation.z_m);

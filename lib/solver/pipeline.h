@@ -18,6 +18,7 @@
 #include "solver/mhpo.h"
 #include "solver/observation.h"
 #include "solver/pnp.h"
+#include "solver/ppf.h"
 #include "solver/region.h"
 #include "solver/score.h"
 #include "solver/segments.h"
@@ -86,6 +87,11 @@ struct SolverOptions {
   int mask_refine_rounds = 1;
   MatchOptions match;           ///< τ_H = 64, N_P = 256
   PnpOptions pnp;
+  /// Point-pair-feature hypotheses (ppf.h) from the depth of the search region, beside the
+  /// ORB-PnP ones: they need no texture (bare metal, plain plastic). Used when the bank has
+  /// a PPF model (TemplateBank::ppf); the two sources' poses meet in observable selection.
+  bool use_ppf = true;
+  PpfSearchOptions ppf;
   int num_hypotheses = 18;      ///< N_H = K: hypotheses kept after observable selection
   ScoreOptions score;           ///< ω_C = 0.70, λ_S = 10
   GridOptions selection_grid = [] {
@@ -211,6 +217,13 @@ struct StageReport {
   /// (SolverOptions::max_search_regions).
   int search_regions = 0;
   int pnp_hypotheses = 0;          ///< valid MSAC-PnP poses
+  /// Point-pair-feature voting (SolverOptions::use_ppf): the scene points it voted with,
+  /// the poses it gave (clusters) and how many of them were new (not equal to a PnP pose
+  /// modulo the symmetries), and whether T_A came from one of them.
+  int ppf_scene_points = 0;
+  int ppf_hypotheses = 0;
+  int ppf_distinct = 0;
+  bool answer_from_ppf = false;
   int kept_hypotheses = 0;         ///< after observable selection (≤ N_H)
   int icp_converged = 0;
   int sets_tried = 0;               ///< correspondence sets PnP ran on (pnp_min_quality_ratio)
@@ -254,7 +267,7 @@ struct StageReport {
   double best_e_obs = 1.0;         ///< best E_obs among PnP poses
   double best_s_after_icp = 2.0;   ///< best S after ICP
   double prepare_ms = 0.0, features_ms = 0.0, match_ms = 0.0, pnp_ms = 0.0,
-         observable_ms = 0.0, icp_ms = 0.0, mhpo_ms = 0.0, post_refine_ms = 0.0, finalists_ms = 0.0,
+         ppf_ms = 0.0, observable_ms = 0.0, icp_ms = 0.0, mhpo_ms = 0.0, post_refine_ms = 0.0, finalists_ms = 0.0,
          mask_refine_ms = 0.0, depth_regions_ms = 0.0, neighbours_ms = 0.0, total_ms = 0.0;
   int distinct_finalists = 0;         ///< finalists left after merging poses equal modulo symmetry
   int appearance_compared = 0;        ///< finalists whose appearance was scored
@@ -280,7 +293,7 @@ struct StageTime {
 };
 
 /// The stage times of a report in pipeline order, with the names every report uses (the
-/// service's status, g6d-solve, the benchmarks): prepare, features, match, pnp,
+/// service's status, g6d-solve, the benchmarks): prepare, features, match, pnp, ppf,
 /// observable, icp, mhpo, post_refine, finalists, total.
 std::vector<StageTime> StageTimes(const StageReport& stages);
 

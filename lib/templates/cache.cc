@@ -43,6 +43,7 @@ constexpr uint64_t kMaxBodyBytes = uint64_t{256} << 20;
 constexpr uint32_t kMaxStringBytes = 4096;
 constexpr uint32_t kMaxSymmetries = 4096;
 constexpr uint32_t kMaxVertices = 10000000;
+constexpr uint32_t kMaxPpfPoints = 60000;  // PpfModelOptions::max_points at most (uint16 indices)
 constexpr uint32_t kMaxFaces = 20000000;
 constexpr uint32_t kMaxTemplates = 100000;
 constexpr uint32_t kMaxKeypointsPerTemplate = 100000;
@@ -342,6 +343,40 @@ void WriteOptions(const TemplateBuildOptions& o, Writer* w) {
   w->U64(o.appearance.seed);
   w->F64(o.appearance.min_color_std);
   w->I32(o.appearance.texture_max_side_px);
+  w->U8(o.build_ppf ? 1 : 0);
+  w->F64(o.ppf.step_fraction);
+  w->F64(o.ppf.angle_step_deg);
+  w->F64(o.ppf.normal_cluster_deg);
+  w->I32(o.ppf.surface_samples);
+  w->I32(o.ppf.max_points);
+  w->U32(o.ppf.seed);
+}
+
+// The point-pair-feature model's stored part: step, then points and unit normals (f32,
+// byte-shuffled). Its options are the build options' (TemplateBuildOptions::ppf).
+void WritePpfModel(const PpfModel& model, Writer* w) {
+  G6D_CHECK(model.normals.size() == model.points.size());
+  w->F64(model.step_m);
+  w->Count(model.points.size(), kMaxPpfPoints, "ppf point");
+  w->ShuffledF32(model.points.empty() ? nullptr : model.points[0].data(), 3 * model.points.size());
+  w->ShuffledF32(model.normals.empty() ? nullptr : model.normals[0].data(), 3 * model.normals.size());
+}
+
+PpfModel ReadPpfModel(Reader* r, const TemplateBuildOptions& options) {
+  PpfModel model;
+  model.options = options.ppf;
+  model.step_m = r->Finite("ppf step");
+  const uint32_t n = r->Count(kMaxPpfPoints, 24, "ppf point");
+  if (n > 0 && !(model.step_m > 0.0)) r->Fail("ppf step", "is not positive");
+  if (n > 0 && !options.build_ppf) r->Fail("ppf point", "count is not 0 for a cache built without a ppf model");
+  model.points.resize(n);
+  model.normals.resize(n);
+  r->ShuffledFiniteF32(n > 0 ? model.points[0].data() : nullptr, 3 * size_t{n}, "ppf point");
+  r->ShuffledFiniteF32(n > 0 ? model.normals[0].data() : nullptr, 3 * size_t{n}, "ppf normal");
+  for (const Eigen::Vector3f& normal : model.normals) {
+    if (std::abs(normal.norm() - 1.0f) > 1e-3f) r->Fail("ppf normal", "is not a unit vector");
+  }
+  return model;
 }
 
 TemplateBuildOptions ReadOptions(Reader* r, const std::string& name) {
@@ -381,6 +416,15 @@ TemplateBuildOptions ReadOptions(Reader* r, const std::string& name) {
   o.appearance.seed = r->U64("appearance.seed");
   o.appearance.min_color_std = r->F64("appearance.min_color_std");
   o.appearance.texture_max_side_px = r->I32("appearance.texture_max_side_px");
+  const uint8_t build_ppf = r->U8("build_ppf");
+  if (build_ppf > 1) r->Fail("build_ppf", "code " + std::to_string(build_ppf) + " is not a bool");
+  o.build_ppf = build_ppf == 1;
+  o.ppf.step_fraction = r->F64("ppf.step_fraction");
+  o.ppf.angle_step_deg = r->F64("ppf.angle_step_deg");
+  o.ppf.normal_cluster_deg = r->F64("ppf.normal_cluster_deg");
+  o.ppf.surface_samples = r->I32("ppf.surface_samples");
+  o.ppf.max_points = r->I32("ppf.max_points");
+  o.ppf.seed = r->U32("ppf.seed");
   if (const std::string problem = o.Check(); !problem.empty()) {
     G6D_THROW(name << ": corrupted: build option out of range: " << problem);
   }
@@ -611,6 +655,7 @@ std::string EncodeBody(const TemplateBank& bank) {
   for (const Eigen::Isometry3d& s : bank.symmetries) WritePose(s, &w);
   WriteGeometricSymmetries(bank.geometric_symmetries, &w);
   WriteAppearance(bank.appearance, &w);
+  WritePpfModel(bank.ppf, &w);
   WriteMesh(bank.online_mesh, &w);
   w.Count(bank.templates.size(), kMaxTemplates, "template");
   for (const Template& t : bank.templates) WriteTemplate(t, bank.options, &w);
@@ -648,6 +693,7 @@ TemplateBank DecodeBody(const uint8_t* data, size_t size, const std::string& nam
   for (uint32_t i = 0; i < num_symmetries; ++i) bank.symmetries.push_back(ReadPose(&r, "symmetry"));
   bank.geometric_symmetries = ReadGeometricSymmetries(&r);
   bank.appearance = ReadAppearance(&r);
+  bank.ppf = ReadPpfModel(&r, bank.options);
   bank.online_mesh = ReadMesh(&r);
   // The smallest possible template: pose, affine, empty mask/thumbnail and no keypoints.
   constexpr size_t kMinTemplateBytes = 96 + 24 + 12 + 8 + 4;
@@ -863,6 +909,7 @@ TemplateBank ReadTemplateCache(const std::string& path) {
   if (!in) G6D_THROW(name << ": truncated: the body could not be read completely");
   TemplateBank bank = DecodeCompressedBody(info, compressed.data(), name);
   DeriveOnlineMeshes(&bank);
+  DerivePpfTable(&bank.ppf);
   return bank;
 }
 

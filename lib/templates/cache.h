@@ -19,10 +19,11 @@ namespace g6d {
 
 /// Current cache format version; files of any other version are refused.
 /// 1: first format. 2: the mesh's geometric symmetries and coloured appearance samples.
-inline constexpr uint32_t kCacheFormatVersion = 2;
+/// 3: the point-pair-feature model (oriented surface points) and its build options.
+inline constexpr uint32_t kCacheFormatVersion = 3;
 /// What the current version added, for the message that refuses an older file.
 inline constexpr const char* kCacheFormatChange =
-    "version 2 stores the mesh's geometric symmetries and appearance samples";
+    "version 3 stores the point-pair-feature model that finds texture-less objects";
 
 /// Writes `bank` to `path` (atomically: temp file + rename). Throws g6d::Error on I/O errors
 /// and on what the reader would refuse (a pose that is not rigid, a mask or thumbnail that

@@ -21,6 +21,7 @@ std::string TemplateBuildOptions::Check() const {
   if (std::string problem = orb.Check(); !problem.empty()) return problem;
   if (std::string problem = symmetry.Check(); !problem.empty()) return problem;
   if (std::string problem = appearance.Check(); !problem.empty()) return problem;
+  if (std::string problem = ppf.Check(); !problem.empty()) return problem;
   std::ostringstream out;
   if (render_size_px < 16 || render_size_px > 8192) {
     out << "render_size_px must be in 16..8192 (got " << render_size_px << ")";
@@ -248,6 +249,7 @@ TemplateBank BuildTemplateBank(const Mesh& mesh, const std::string& object_id,
       bank.online_mesh = Decimate(mesh, options.online_mesh_faces);
       if (options.find_symmetries) bank.geometric_symmetries = FindSymmetries(mesh, options.symmetry);
       if (options.sample_appearance) bank.appearance = SampleAppearance(mesh, options.appearance);
+      if (options.build_ppf) bank.ppf = BuildPpfModel(mesh, bank.diameter_m, options.ppf);
       return;
     }
     const int j = item - 1;

@@ -21,6 +21,7 @@
 #include "templates/appearance.h"
 #include "templates/crop.h"
 #include "templates/features.h"
+#include "templates/ppf_model.h"
 #include "templates/views.h"
 
 namespace g6d {
@@ -52,6 +53,11 @@ struct TemplateBuildOptions {
   /// (sample_points, seed, min_color_std, texture_max_side_px) are used and stored.
   bool sample_appearance = true;
   AppearanceOptions appearance;
+  /// The point-pair-feature model (templates/ppf_model.h), the hypothesis source that needs
+  /// no texture, is sampled at build time (off: the bank has none and the solver uses ORB
+  /// alone).
+  bool build_ppf = true;
+  PpfModelOptions ppf;
 
   /// Empty when valid, else names the bad field.
   std::string Check() const;
@@ -95,6 +101,9 @@ struct TemplateBank {
   /// Coloured surface samples of the full mesh for the appearance tie-break; empty for an
   /// untextured, uncoloured or uniformly coloured mesh.
   AppearanceModel appearance;
+  /// Oriented surface points for point-pair-feature voting; empty when the build had
+  /// options.build_ppf off. Its table is derived when a bank is built or read.
+  PpfModel ppf;
   Mesh online_mesh;  ///< decimated geometry for online rasterization
   std::vector<Template> templates;
 
