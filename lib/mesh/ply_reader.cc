@@ -503,9 +503,14 @@ PlyMesh ReadPly(const std::string& path) {
           continue;
         }
         if (!reader.Read(property.count_type, &value)) fail();
-        if (!(value >= 0.0) || value > static_cast<double>(reader.RemainingBytes())) {
+        if (!(value >= 0.0)) {
           G6D_THROW(where << element.name << " " << item << ": list '" << property.name
                           << "' has length " << value << "; " << kReexportHint);
+        }
+        if (value > static_cast<double>(reader.RemainingBytes())) {  // every value takes a byte
+          G6D_THROW(where << "the data ends in " << element.name << " " << item << " of "
+                          << element.count << " (property '" << property.name
+                          << "', a list of " << value << "); " << kReexportHint);
         }
         const int64_t length = static_cast<int64_t>(value);
         const bool indices = is_face && (property.name == "vertex_indices" ||
