@@ -696,6 +696,35 @@ TEST(LoadMesh, LmoPlyKeepsVertexColoursAndNormals) {
   EXPECT_FALSE(mesh.HasTexture());
 }
 
+TEST(LoadMesh, TexturedBinaryPlyKeepsTextureColoursAndNormals) {
+  // BOP-style YCB-V model as binary PLY: normals, uchar RGBA, texture_u/v, TextureFile.
+  constexpr const char* kModel = "synth_dev/models/obj_000302.ply";
+  G6D_REQUIRE_SHARED_DATA(kModel);
+  const Mesh mesh = LoadMesh(test::SharedDataPath(kModel), Units::kMillimetres);
+  EXPECT_EQ(mesh.vertices.size(), 8411u);  // as in the PLY header
+  EXPECT_EQ(mesh.faces.size(), 16384u);
+  ASSERT_TRUE(mesh.HasColors());
+  ASSERT_TRUE(mesh.HasTexture());
+  ASSERT_EQ(mesh.uvs.size(), mesh.vertices.size());
+  ASSERT_EQ(mesh.normals.size(), mesh.vertices.size());
+  const cv::Mat png =
+      cv::imread(test::SharedDataPath("synth_dev/models/obj_000302.png"), cv::IMREAD_COLOR);
+  EXPECT_EQ(mesh.texture.size(), png.size());
+  for (const Eigen::Vector3f& normal : mesh.normals) EXPECT_NEAR(normal.norm(), 1.0f, 1e-4f);
+  // The dataset's models_info.json (BOP: millimetres).
+  const nlohmann::json info =
+      ReadJson(test::SharedDataPath("synth_dev/models/models_info.json")).at("302");
+  EXPECT_NEAR(1000.0 * ComputeDiameter(mesh), info.at("diameter").get<double>(), 0.01);
+  const Eigen::AlignedBox3d box = ComputeBoundingBox(mesh);
+  const char* axes[] = {"x", "y", "z"};
+  for (int axis = 0; axis < 3; ++axis) {
+    EXPECT_NEAR(1000.0 * box.min()[axis], info.at(std::string("min_") + axes[axis]).get<double>(),
+                0.01);
+    EXPECT_NEAR(1000.0 * box.sizes()[axis],
+                info.at(std::string("size_") + axes[axis]).get<double>(), 0.01);
+  }
+}
+
 TEST(LoadMesh, YcbvObjKeepsTextureUvsInMetres) {
   G6D_REQUIRE_SHARED_DATA(kYcbvFoamBrick);
   const Mesh mesh = LoadMesh(test::SharedDataPath(kYcbvFoamBrick), Units::kMetres);
