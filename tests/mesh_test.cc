@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <random>
 #include <string>
@@ -14,6 +15,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/error.h"
+#include "mesh_files.h"
 #include "test_meshes.h"
 #include "test_util.h"
 
@@ -284,7 +286,8 @@ TEST_F(LoadMeshFiles, PlyWithPointsOnlyHasNoTriangles) {
             "property float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n");
   const std::string message = LoadError(path);
   EXPECT_THAT(message, HasSubstr(path));
-  EXPECT_THAT(message, HasSubstr("no triangles"));
+  EXPECT_THAT(message, HasSubstr("no triangles (only 3 points"));
+  EXPECT_THAT(message, HasSubstr("export the object's surface"));
 }
 
 TEST_F(LoadMeshFiles, ObjWithLinesOnlyHasNoTriangles) {
@@ -303,7 +306,8 @@ TEST_F(LoadMeshFiles, NanVertexNamesIt) {
             "end_header\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n");
   const std::string message = LoadError(path);
   EXPECT_THAT(message, HasSubstr(path));
-  EXPECT_THAT(message, HasSubstr("not finite"));
+  EXPECT_THAT(message, HasSubstr("vertex 1 is not finite"));
+  EXPECT_THAT(message, HasSubstr("export again"));
 }
 
 TEST_F(LoadMeshFiles, OutOfRangeIndexNamesTheFile) {
@@ -312,7 +316,28 @@ TEST_F(LoadMeshFiles, OutOfRangeIndexNamesTheFile) {
             "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
             "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
             "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n");
-  EXPECT_THAT(LoadError(path), HasSubstr(path));
+  const std::string message = LoadError(path);
+  EXPECT_THAT(message, HasSubstr(path));
+  EXPECT_THAT(message, HasSubstr("face 0 refers to vertex 7 but the file has 3 vertices"));
+  EXPECT_THAT(message, HasSubstr("re-export"));
+}
+
+TEST_F(LoadMeshFiles, MeshWithoutAreaNamesIt) {
+  // Collinear corners (PLY, our reader) and a repeated corner (OBJ, assimp).
+  const std::string ply = Path("flat.ply");
+  WriteFile(ply,
+            "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+            "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+            "end_header\n0 0 0\n1 0 0\n2 0 0\n3 0 1 2\n");
+  const std::string obj = Path("flat.obj");
+  WriteFile(obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 2\nf 3 3 3\n");
+  for (const std::string& path : {ply, obj}) {
+    const std::string message = LoadError(path);
+    EXPECT_THAT(message, HasSubstr(path));
+    EXPECT_THAT(message, HasSubstr("has no area"));
+    EXPECT_THAT(message, HasSubstr("degenerate"));
+    EXPECT_THAT(message, HasSubstr("export the object's surface again"));
+  }
 }
 
 TEST_F(LoadMeshFiles, ObjWithoutNormalsGetsOutwardNormalsAndScales) {
@@ -410,6 +435,217 @@ TEST_F(LoadMeshFiles, TexturedAndPlainPartsShareOneAtlas) {
 }
 
 // ---------------------------------------------------------------------------------------
+// The mesh-file corpus (mesh_files.h): every format gives the same triangles.
+
+// One file of the corpus: how to write it and what it carries besides geometry.
+struct CorpusCase {
+  std::string name;  // file name
+  std::function<void(const std::string& path, const test::CorpusBox& box)> write;
+  bool colors = false;         // vertex colours come through
+  bool texture = false;        // the texture image and UVs come through
+  bool newline_first = false;  // the box whose binary PLY data starts with 0x0a
+};
+
+std::vector<CorpusCase> CorpusCases() {
+  using test::PlyWriteOptions;
+  using Encoding = PlyWriteOptions::Encoding;
+  using Colors = PlyWriteOptions::Colors;
+  const auto ply = [](PlyWriteOptions options) {
+    return [options](const std::string& path, const test::CorpusBox& box) {
+      test::WriteCorpusPly(path, box, options);
+    };
+  };
+  const auto obj = [](test::ObjWriteOptions options) {
+    return [options](const std::string& path, const test::CorpusBox& box) {
+      test::WriteCorpusObj(path, box, options);
+    };
+  };
+  PlyWriteOptions ascii, little, big;
+  little.encoding = Encoding::kBinaryLittleEndian;
+  big.encoding = Encoding::kBinaryBigEndian;
+  for (PlyWriteOptions* options : {&ascii, &little, &big}) options->colors = Colors::kUchar;
+  PlyWriteOptions int_counts = little, ascii_int_counts = ascii;
+  int_counts.count_type = ascii_int_counts.count_type = "int";
+  PlyWriteOptions quads = ascii, binary_quads = big;
+  quads.quads = binary_quads.quads = true;
+  PlyWriteOptions float_colors = little, ascii_float_colors = ascii;
+  float_colors.colors = ascii_float_colors.colors = Colors::kFloat;
+  PlyWriteOptions plain = little;
+  plain.colors = Colors::kNone;
+  PlyWriteOptions textured = little;  // as BOP's YCB-V PLY: normals, colours, texture
+  textured.normals = true;
+  textured.texture_file = "texture.png";
+  PlyWriteOptions ascii_textured = ascii;
+  ascii_textured.colors = Colors::kNone;
+  ascii_textured.quads = true;
+  ascii_textured.texture_file = "texture.png";
+  test::ObjWriteOptions obj_mtl, obj_textured, obj_quads;
+  obj_mtl.mtl_file = "plain.mtl";
+  obj_textured.mtl_file = "textured.mtl";
+  obj_textured.texture_file = "texture.png";
+  obj_quads.quads = true;
+  return {
+      {"ascii.ply", ply(ascii), true, false, false},
+      {"little.ply", ply(little), true, false, false},
+      {"big.ply", ply(big), true, false, false},
+      {"newline_first.ply", ply(little), true, false, true},
+      {"newline_first_ascii.ply", ply(ascii), true, false, true},
+      {"newline_first_plain.ply", ply(plain), false, false, true},
+      {"int_counts.ply", ply(int_counts), true, false, false},
+      {"ascii_int_counts.ply", ply(ascii_int_counts), true, false, false},
+      {"quads.ply", ply(quads), true, false, false},
+      {"binary_quads.ply", ply(binary_quads), true, false, false},
+      {"float_colors.ply", ply(float_colors), true, false, false},
+      {"ascii_float_colors.ply", ply(ascii_float_colors), true, false, false},
+      {"plain.ply", ply(plain), false, false, false},
+      {"textured.ply", ply(textured), true, true, false},
+      {"ascii_textured_quads.ply", ply(ascii_textured), false, true, false},
+      {"plain.obj", obj({}), false, false, false},
+      {"quads.obj", obj(obj_quads), false, false, false},
+      {"material.obj", obj(obj_mtl), false, false, false},
+      {"textured.obj", obj(obj_textured), false, true, false},
+      {"binary.stl",
+       [](const std::string& path, const test::CorpusBox& box) {
+         test::WriteCorpusStl(path, box, true);
+       },
+       false, false, false},
+      {"ascii.stl",
+       [](const std::string& path, const test::CorpusBox& box) {
+         test::WriteCorpusStl(path, box, false);
+       },
+       false, false, false},
+      {"binary.glb",
+       [](const std::string& path, const test::CorpusBox& box) {
+         test::WriteCorpusGlb(path, box);
+       },
+       false, false, false},
+  };
+}
+
+// Expects `mesh` (loaded in millimetres) to hold the box's triangles, corner by corner, with
+// its colours and texture when `expected` says they come through, and nothing else.
+void ExpectCorpusBox(const Mesh& mesh, const test::CorpusBox& box, const CorpusCase& expected) {
+  const std::string& name = expected.name;
+  const std::vector<Eigen::Vector3i> triangles = box.Triangles();
+  ASSERT_EQ(mesh.faces.size(), triangles.size()) << name;
+  ASSERT_EQ(mesh.normals.size(), mesh.vertices.size()) << name;
+  ASSERT_EQ(mesh.HasColors(), expected.colors) << name;
+  ASSERT_EQ(mesh.HasTexture(), expected.texture) << name;
+  if (expected.texture) {
+    EXPECT_EQ(mesh.texture.cols, 96) << name;
+    EXPECT_EQ(mesh.texture.rows, 64) << name;
+    ASSERT_EQ(mesh.uvs.size(), mesh.vertices.size()) << name;
+  }
+  // Text formats round-trip floats with 9 digits, but assimp parses them in single
+  // precision: allow a few float steps of a 50 mm coordinate.
+  constexpr float kPositionToleranceM = 1e-8f;
+  for (size_t f = 0; f < triangles.size(); ++f) {
+    for (int k = 0; k < 3; ++k) {
+      const int loaded = mesh.faces[f][k];
+      const int reference = triangles[f][k];
+      const Eigen::Vector3f reference_m = (box.positions[reference].cast<double>() * 1e-3).cast<float>();
+      EXPECT_LT((mesh.vertices[loaded] - reference_m).cwiseAbs().maxCoeff(), kPositionToleranceM)
+          << name << " face " << f << " corner " << k;
+      if (expected.colors) {
+        EXPECT_LT((mesh.colors[loaded] - box.Color01(reference)).cwiseAbs().maxCoeff(), 1e-6f)
+            << name << " face " << f << " corner " << k;
+      }
+      if (expected.texture) {
+        EXPECT_LT((mesh.uvs[loaded] - box.uvs[reference]).cwiseAbs().maxCoeff(), 1e-6f)
+            << name << " face " << f << " corner " << k;
+      }
+      EXPECT_NEAR(mesh.normals[loaded].norm(), 1.0f, 1e-5f) << name;
+    }
+  }
+  Eigen::AlignedBox3d reference_box;
+  for (const Eigen::Vector3f& p : box.positions) reference_box.extend(p.cast<double>() * 1e-3);
+  const Eigen::AlignedBox3d loaded_box = ComputeBoundingBox(mesh);
+  EXPECT_LT((loaded_box.min() - reference_box.min()).cwiseAbs().maxCoeff(), 1e-8) << name;
+  EXPECT_LT((loaded_box.max() - reference_box.max()).cwiseAbs().maxCoeff(), 1e-8) << name;
+  EXPECT_NEAR(ComputeDiameter(mesh), reference_box.sizes().norm(), 1e-7) << name;
+  EXPECT_NEAR(ComputeSurfaceArea(mesh), 2.0 * (0.08 * 0.06 + 0.08 * 0.04 + 0.06 * 0.04), 1e-8)
+      << name;
+  EXPECT_TRUE(IsClosedAndOriented(mesh)) << name;
+}
+
+TEST_F(LoadMeshFiles, CorpusGivesTheSameTrianglesInEveryFormat) {
+  ASSERT_TRUE(cv::imwrite(Path("texture.png"), test::CorpusTexture()));
+  for (const CorpusCase& corpus_case : CorpusCases()) {
+    const test::CorpusBox box = test::MakeCorpusBox(corpus_case.newline_first);
+    const std::string path = Path(corpus_case.name);
+    corpus_case.write(path, box);
+    Mesh mesh;
+    try {
+      mesh = LoadMesh(path, Units::kMillimetres);
+    } catch (const Error& error) {
+      ADD_FAILURE() << corpus_case.name << ": " << error.what();
+      continue;
+    }
+    ExpectCorpusBox(mesh, box, corpus_case);
+  }
+}
+
+// The bytes right after the PLY header's `end_header` line.
+std::string PlyBody(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const size_t end = bytes.find("end_header\n");
+  return end == std::string::npos ? std::string() : bytes.substr(end + 11);
+}
+
+TEST_F(LoadMeshFiles, NewlineFirstBinaryPlyMatchesItsAsciiTwin) {
+  // Debian's assimp 5.2 skipped the 0x0a that starts this file's data and read every value
+  // one byte off ("aiMesh::mFaces[0].mNumIndices is 0").
+  const test::CorpusBox box = test::MakeCorpusBox(/*newline_first=*/true);
+  test::PlyWriteOptions options;
+  options.colors = test::PlyWriteOptions::Colors::kUchar;
+  test::WriteCorpusPly(Path("twin.ply"), box, options);
+  options.encoding = test::PlyWriteOptions::Encoding::kBinaryLittleEndian;
+  test::WriteCorpusPly(Path("binary.ply"), box, options);
+  ASSERT_EQ(PlyBody(Path("binary.ply")).at(0), '\n');
+  const Mesh ascii = LoadMesh(Path("twin.ply"), Units::kMillimetres);
+  const Mesh binary = LoadMesh(Path("binary.ply"), Units::kMillimetres);
+  EXPECT_EQ(binary.vertices, ascii.vertices);
+  EXPECT_EQ(binary.faces, ascii.faces);
+  EXPECT_EQ(binary.colors, ascii.colors);
+  EXPECT_EQ(binary.normals, ascii.normals);
+  EXPECT_EQ(ComputeDiameter(binary), ComputeDiameter(ascii));
+  EXPECT_TRUE(ComputeBoundingBox(binary).isApprox(ComputeBoundingBox(ascii), 0.0));
+}
+
+TEST_F(LoadMeshFiles, BrokenBinaryPlyNamesWhatIsWrong) {
+  test::PlyWriteOptions options;
+  options.encoding = test::PlyWriteOptions::Encoding::kBinaryLittleEndian;
+  test::WriteCorpusPly(Path("whole.ply"), test::MakeCorpusBox(), options);
+  std::ifstream in(Path("whole.ply"), std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+
+  WriteFile(Path("truncated.ply"), bytes.substr(0, bytes.size() - 10));
+  std::string message = LoadError(Path("truncated.ply"));
+  EXPECT_THAT(message, HasSubstr(Path("truncated.ply")));
+  EXPECT_THAT(message, HasSubstr("the data ends in face 11 of 12"));
+  EXPECT_THAT(message, HasSubstr("re-export"));
+
+  // One byte too many: what a reader that skips a byte it should not (or a header that
+  // does not match the data) leaves over.
+  WriteFile(Path("extra.ply"), bytes + "\x01");
+  message = LoadError(Path("extra.ply"));
+  EXPECT_THAT(message, HasSubstr(Path("extra.ply")));
+  EXPECT_THAT(message, HasSubstr("1 bytes follow the last element (face 12)"));
+}
+
+TEST_F(LoadMeshFiles, ReaderDisagreeingWithTheFileHeaderIsRefused) {
+  // A glTF whose POSITION accessor declares other bounds than its data holds: what a
+  // misread looks like to the check.
+  const std::string path = Path("lying.glb");
+  test::WriteCorpusGlb(path, test::MakeCorpusBox(), /*declared_max_scale=*/2.0f);
+  const std::string message = LoadError(path);
+  EXPECT_THAT(message, HasSubstr(path));
+  EXPECT_THAT(message, HasSubstr("but the file (glTF accessors) declares"));
+  EXPECT_THAT(message, HasSubstr("convert it to PLY or OBJ"));
+}
+
+// ---------------------------------------------------------------------------------------
 // BOP models from the shared data.
 
 TEST(ComputeDiameter, MatchesBopLmoModelsInfo) {
@@ -458,6 +694,35 @@ TEST(LoadMesh, LmoPlyKeepsVertexColoursAndNormals) {
   EXPECT_TRUE(mesh.colors[0].isApprox(Eigen::Vector3f(148, 57, 57) / 255.0f, 1e-5f));
   for (const Eigen::Vector3f& normal : mesh.normals) EXPECT_NEAR(normal.norm(), 1.0f, 1e-4f);
   EXPECT_FALSE(mesh.HasTexture());
+}
+
+TEST(LoadMesh, TexturedBinaryPlyKeepsTextureColoursAndNormals) {
+  // BOP-style YCB-V model as binary PLY: normals, uchar RGBA, texture_u/v, TextureFile.
+  constexpr const char* kModel = "synth_dev/models/obj_000302.ply";
+  G6D_REQUIRE_SHARED_DATA(kModel);
+  const Mesh mesh = LoadMesh(test::SharedDataPath(kModel), Units::kMillimetres);
+  EXPECT_EQ(mesh.vertices.size(), 8411u);  // as in the PLY header
+  EXPECT_EQ(mesh.faces.size(), 16384u);
+  ASSERT_TRUE(mesh.HasColors());
+  ASSERT_TRUE(mesh.HasTexture());
+  ASSERT_EQ(mesh.uvs.size(), mesh.vertices.size());
+  ASSERT_EQ(mesh.normals.size(), mesh.vertices.size());
+  const cv::Mat png =
+      cv::imread(test::SharedDataPath("synth_dev/models/obj_000302.png"), cv::IMREAD_COLOR);
+  EXPECT_EQ(mesh.texture.size(), png.size());
+  for (const Eigen::Vector3f& normal : mesh.normals) EXPECT_NEAR(normal.norm(), 1.0f, 1e-4f);
+  // The dataset's models_info.json (BOP: millimetres).
+  const nlohmann::json info =
+      ReadJson(test::SharedDataPath("synth_dev/models/models_info.json")).at("302");
+  EXPECT_NEAR(1000.0 * ComputeDiameter(mesh), info.at("diameter").get<double>(), 0.01);
+  const Eigen::AlignedBox3d box = ComputeBoundingBox(mesh);
+  const char* axes[] = {"x", "y", "z"};
+  for (int axis = 0; axis < 3; ++axis) {
+    EXPECT_NEAR(1000.0 * box.min()[axis], info.at(std::string("min_") + axes[axis]).get<double>(),
+                0.01);
+    EXPECT_NEAR(1000.0 * box.sizes()[axis],
+                info.at(std::string("size_") + axes[axis]).get<double>(), 0.01);
+  }
 }
 
 TEST(LoadMesh, YcbvObjKeepsTextureUvsInMetres) {

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <sstream>
 #include <string>
 
 #include <gmock/gmock.h>
@@ -16,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "templates/cache.h"
+#include "mesh_files.h"
 #include "process_util.h"
 #include "test_meshes.h"
 #include "test_util.h"
@@ -119,6 +121,51 @@ TEST(Tools, BuildTemplatesReportsErrors) {
       RunCommand(kBuildTemplates + " --mesh " + mesh + " --units inch --object-id x --out " + dir +
                  "/x.g6dcache");
   EXPECT_NE(bad_units.exit_code, 0);
+}
+
+// The line of `output` that starts with `prefix` ("" when none).
+std::string LineStartingWith(const std::string& output, const std::string& prefix) {
+  std::istringstream lines(output);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind(prefix, 0) == 0) return line;
+  }
+  return "";
+}
+
+// A binary PLY whose data starts with a newline byte (Debian's assimp 5.2 refused it:
+// "aiMesh::mFaces[0].mNumIndices is 0") builds the same cache geometry as its ASCII twin.
+TEST(Tools, BuildTemplatesReadsNewlineFirstBinaryPlyLikeItsAsciiTwin) {
+  const std::string dir = test::TempDir("tools_newline_first");
+  const test::CorpusBox box = test::MakeCorpusBox(/*newline_first=*/true);
+  test::PlyWriteOptions options;
+  options.colors = test::PlyWriteOptions::Colors::kUchar;
+  test::WriteCorpusPly(dir + "/ascii.ply", box, options);
+  options.encoding = test::PlyWriteOptions::Encoding::kBinaryLittleEndian;
+  test::WriteCorpusPly(dir + "/binary.ply", box, options);
+  std::string inspected[2];
+  TemplateBank banks[2];
+  const char* names[2] = {"ascii", "binary"};
+  for (int i = 0; i < 2; ++i) {
+    const std::string mesh = dir + "/" + names[i] + ".ply";
+    const std::string cache = dir + "/" + names[i] + ".g6dcache";
+    const RunResult build =
+        RunCommand(kBuildTemplates + " --mesh " + mesh + " --units mm --object-id obj_000034 --out " +
+                   cache + " --views 3 --inplane 1 --threads 2");
+    ASSERT_EQ(build.exit_code, 0) << build.output;
+    banks[i] = ReadTemplateCacheChecked(cache, mesh);
+    const RunResult inspect = RunCommand(kInspect + " " + cache);
+    ASSERT_EQ(inspect.exit_code, 0) << inspect.output;
+    inspected[i] = inspect.output;
+  }
+  EXPECT_EQ(banks[1].diameter_m, banks[0].diameter_m);
+  EXPECT_EQ(banks[1].bounding_box.min(), banks[0].bounding_box.min());
+  EXPECT_EQ(banks[1].bounding_box.max(), banks[0].bounding_box.max());
+  // The box's diagonal (its minimum x is a float step below -35 mm).
+  EXPECT_NEAR(banks[1].diameter_m, 1e-3 * std::sqrt(80.0 * 80 + 60 * 60 + 40 * 40), 1e-7);
+  for (const char* line : {"diameter", "bounding box"}) {
+    EXPECT_NE(LineStartingWith(inspected[1], line), "") << inspected[1];
+    EXPECT_EQ(LineStartingWith(inspected[1], line), LineStartingWith(inspected[0], line));
+  }
 }
 
 TEST(Tools, InspectRefusesABrokenCache) {

@@ -26,6 +26,8 @@
 #include <open3d/geometry/TriangleMesh.h>
 
 #include "core/error.h"
+#include "mesh/mesh_header.h"
+#include "mesh/ply_reader.h"
 
 namespace g6d {
 
@@ -149,6 +151,8 @@ cv::Mat ToRgb(const cv::Mat& image) {
   return rgb;
 }
 
+cv::Mat LoadTextureFile(const std::string& texture_path, const std::string& model_path);
+
 // Reads the diffuse texture `texture_path` of a material of `model_path` as RGB: embedded
 // in the scene (glTF, FBX) or an image file relative to the model's folder.
 cv::Mat LoadTextureImage(const aiScene& scene, const std::string& texture_path,
@@ -171,6 +175,12 @@ cv::Mat LoadTextureImage(const aiScene& scene, const std::string& texture_path,
     return ToRgb(image);
   }
 
+  return LoadTextureFile(texture_path, model_path);
+}
+
+// Reads the texture image file `texture_path` (as written in the model) of `model_path`
+// as RGB: relative to the model's folder, or just its file name beside the model.
+cv::Mat LoadTextureFile(const std::string& texture_path, const std::string& model_path) {
   namespace fs = std::filesystem;
   std::string relative = texture_path;
   std::replace(relative.begin(), relative.end(), '\\', '/');  // files exported on Windows
@@ -233,24 +243,125 @@ Eigen::Vector3f ClampColor(const aiColor4D& color) {
   return Eigen::Vector3f(color.r, color.g, color.b).cwiseMax(0.0f).cwiseMin(1.0f);
 }
 
-}  // namespace
+// What to do about a mesh without triangles.
+constexpr const char* kNoTrianglesHint =
+    "export the object's surface (faces), not a point cloud or a wireframe";
 
-Mesh LoadMesh(const std::string& path, Units units) {
-  namespace fs = std::filesystem;
-  std::error_code fs_error;
-  if (!fs::exists(path, fs_error)) G6D_THROW("LoadMesh: '" << path << "': file does not exist");
-  if (!fs::is_regular_file(path, fs_error)) {
-    G6D_THROW("LoadMesh: '" << path << "': not a regular file");
+// Keeps the file's normals when every vertex has a usable one (normalized), else computes
+// area-weighted normals from the faces.
+void FinishNormals(bool file_has_normals, Mesh* mesh) {
+  bool normals_usable = file_has_normals && mesh->normals.size() == mesh->vertices.size();
+  for (Eigen::Vector3f& normal : mesh->normals) {
+    if (!normals_usable) break;
+    const float length = normal.norm();
+    if (!std::isfinite(length) || length < 1e-12f) {
+      normals_usable = false;
+      break;
+    }
+    normal /= length;
   }
-  if (fs::file_size(path, fs_error) == 0) G6D_THROW("LoadMesh: '" << path << "': file is empty");
+  if (!normals_usable) ComputeVertexNormals(mesh);
+}
 
+// Throws when `position_m` (of vertex `index`, read as `as_read` in file units) is not finite.
+void CheckFiniteVertex(const std::string& path, size_t index, const Eigen::Vector3d& position_m,
+                       const Eigen::Vector3d& as_read) {
+  if (position_m.allFinite()) return;
+  G6D_THROW("LoadMesh: '" << path << "': vertex " << index << " is not finite (" << as_read.x()
+                          << ", " << as_read.y() << ", " << as_read.z()
+                          << "); remove or repair such vertices (e.g. MeshLab: Remove Duplicate "
+                             "and Unreferenced Vertices after deleting them) and export again");
+}
+
+// PLY files: our own reader (ply_reader.h says why not assimp's). Appearance as assimp's
+// path gives it: vertex colours (alpha dropped), a `comment TextureFile` texture with the
+// vertex (or face corner) texture coordinates, file normals when every vertex has one.
+Mesh LoadPlyMesh(const std::string& path, Units units) {
+  PlyMesh ply = ReadPly(path);
+  if (ply.triangles.empty()) {
+    G6D_THROW("LoadMesh: '" << path << "': has no triangles (only "
+                            << (ply.num_points_or_lines > 0 ? ply.num_points_or_lines
+                                                            : static_cast<int64_t>(
+                                                                  ply.positions.size()))
+                            << " points or lines); " << kNoTrianglesHint);
+  }
+  Mesh mesh;
+  const double metres_per_unit = MetresPerUnit(units);
+  mesh.vertices.reserve(ply.positions.size());
+  for (size_t v = 0; v < ply.positions.size(); ++v) {
+    const Eigen::Vector3d position_m = ply.positions[v] * metres_per_unit;
+    CheckFiniteVertex(path, v, position_m, ply.positions[v]);
+    mesh.vertices.push_back(position_m.cast<float>());
+  }
+  mesh.faces = std::move(ply.triangles);
+  for (const Eigen::Vector3f& color : ply.colors) {
+    mesh.colors.push_back(color.cwiseMax(0.0f).cwiseMin(1.0f));
+  }
+  // As with assimp, a texture needs both the image and texture coordinates.
+  if (!ply.texture_file.empty() && !ply.uvs.empty()) {
+    mesh.texture = LoadTextureFile(ply.texture_file, path);
+    mesh.uvs = std::move(ply.uvs);
+  }
+  const bool file_has_normals = !ply.normals.empty();
+  mesh.normals = std::move(ply.normals);
+  FinishNormals(file_has_normals, &mesh);
+  return mesh;
+}
+
+// Throws when what assimp read disagrees with what the file's header declares about itself
+// (triangle count, bounds of the positions before node transforms): a reader that
+// succeeds must not hide a misread.
+void CheckAgainstFileHeader(const std::string& path, const aiScene& scene) {
+  const MeshFileHeader header = ReadMeshFileHeader(path);
+  if (!header.has_triangle_count && !header.has_bounds) return;
+  int64_t triangles = 0;
+  Eigen::AlignedBox3d bounds;
+  for (unsigned m = 0; m < scene.mNumMeshes; ++m) {
+    const aiMesh& part = *scene.mMeshes[m];
+    for (unsigned f = 0; f < part.mNumFaces; ++f) triangles += part.mFaces[f].mNumIndices == 3;
+    for (unsigned v = 0; v < part.mNumVertices; ++v) {
+      bounds.extend(Eigen::Vector3d(part.mVertices[v].x, part.mVertices[v].y, part.mVertices[v].z));
+    }
+  }
+  const char* kHint =
+      "the reader misread the file: convert it to PLY or OBJ (e.g. with MeshLab or Blender) "
+      "and try again";
+  if (header.has_triangle_count && triangles != header.triangle_count) {
+    G6D_THROW("LoadMesh: '" << path << "': read " << triangles << " triangles but the file ("
+                            << header.source << ") declares " << header.triangle_count << "; "
+                            << kHint);
+  }
+  if (header.has_bounds && !bounds.isEmpty()) {
+    // Exporters round the declared bounds (glTF min/max are often written with 6-7
+    // significant digits): allow a small fraction of the box's size.
+    const double tolerance =
+        1e-4 * std::max(header.bounds.sizes().maxCoeff(), bounds.sizes().maxCoeff()) + 1e-9;
+    const double difference = std::max((bounds.min() - header.bounds.min()).cwiseAbs().maxCoeff(),
+                                       (bounds.max() - header.bounds.max()).cwiseAbs().maxCoeff());
+    if (!(difference <= tolerance)) {
+      const auto corner = [](const Eigen::Vector3d& p) {
+        std::ostringstream text;
+        text << "(" << p.x() << ", " << p.y() << ", " << p.z() << ")";
+        return text.str();
+      };
+      G6D_THROW("LoadMesh: '" << path << "': read positions spanning min " << corner(bounds.min())
+                              << " max " << corner(bounds.max()) << " but the file ("
+                              << header.source << ") declares min "
+                              << corner(header.bounds.min()) << " max "
+                              << corner(header.bounds.max()) << " (file units); " << kHint);
+    }
+  }
+}
+
+// Every other format: assimp.
+Mesh LoadAssimpMesh(const std::string& path, Units units) {
   Assimp::Importer importer;
   // Read without post-processing first: validation would reject a mesh without faces
   // (a point cloud) with a message that hides what is wrong with the file.
   const aiScene* scene = importer.ReadFile(path, 0);
   if (scene == nullptr) {
     G6D_THROW("LoadMesh: '" << path << "': cannot be parsed (assimp: " << importer.GetErrorString()
-                            << ")");
+                            << "); use a PLY, OBJ, STL or glTF mesh file");
   }
   if ((scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE) != 0 || scene->mNumMeshes == 0) {
     G6D_THROW("LoadMesh: '" << path << "': holds no meshes (not a mesh file?)");
@@ -266,8 +377,9 @@ Mesh LoadMesh(const std::string& path, Units units) {
   }
   if (num_polygons == 0) {
     G6D_THROW("LoadMesh: '" << path << "': has no triangles (only " << num_points_or_lines
-                            << " points or lines)");
+                            << " points or lines); " << kNoTrianglesHint);
   }
+  CheckAgainstFileHeader(path, *scene);
   // ValidateDataStructure rejects out-of-range indices before any other step reads them;
   // SortByPType splits points and lines off into their own sub-meshes, which are skipped.
   // Normals are computed here, not by assimp, so that they are area-weighted.
@@ -275,7 +387,8 @@ Mesh LoadMesh(const std::string& path, Units units) {
                                        aiProcess_JoinIdenticalVertices | aiProcess_SortByPType);
   if (scene == nullptr) {
     G6D_THROW("LoadMesh: '" << path << "': invalid mesh data (assimp: " << importer.GetErrorString()
-                            << ")");
+                            << "); the file is corrupt or uses features assimp cannot read: "
+                               "re-export it (PLY or OBJ)");
   }
 
   std::vector<ScenePart> parts;
@@ -291,7 +404,9 @@ Mesh LoadMesh(const std::string& path, Units units) {
                                       part.mesh->mNumFaces == 0;
                              }),
               parts.end());
-  if (parts.empty()) G6D_THROW("LoadMesh: '" << path << "': has no triangles");
+  if (parts.empty()) {
+    G6D_THROW("LoadMesh: '" << path << "': has no triangles; " << kNoTrianglesHint);
+  }
 
   // Appearance of each part: texture, vertex colours, material colour.
   std::map<std::string, int> texture_index_by_path;
@@ -386,11 +501,9 @@ Mesh LoadMesh(const std::string& path, Units units) {
       const aiVector3D position = transform * part.mVertices[v];
       const Eigen::Vector3d position_m =
           Eigen::Vector3d(position.x, position.y, position.z) * metres_per_unit;
-      if (!position_m.allFinite()) {
-        G6D_THROW("LoadMesh: '" << path << "': vertex " << mesh.vertices.size()
-                                << " is not finite (" << part.mVertices[v].x << ", "
-                                << part.mVertices[v].y << ", " << part.mVertices[v].z << ")");
-      }
+      CheckFiniteVertex(
+          path, mesh.vertices.size(), position_m,
+          Eigen::Vector3d(part.mVertices[v].x, part.mVertices[v].y, part.mVertices[v].z));
       mesh.vertices.push_back(position_m.cast<float>());
       if (part.HasNormals()) {
         const aiVector3D normal = normal_transform * part.mNormals[v];
@@ -428,26 +541,41 @@ Mesh LoadMesh(const std::string& path, Units units) {
         if (face.mIndices[k] >= part.mNumVertices) {
           G6D_THROW("LoadMesh: '" << path << "': face " << f << " refers to vertex "
                                   << face.mIndices[k] << " but its mesh has " << part.mNumVertices
-                                  << " vertices");
+                                  << " vertices; the file is corrupt: re-export it");
         }
         indices[k] = first_vertex + static_cast<int>(face.mIndices[k]);
       }
       mesh.faces.push_back(indices);
     }
   }
-  if (mesh.faces.empty()) G6D_THROW("LoadMesh: '" << path << "': has no triangles");
-
-  // File normals are kept when every part has them and all are usable; otherwise computed.
-  bool normals_usable = all_normals;
-  for (Eigen::Vector3f& normal : mesh.normals) {
-    const float length = normal.norm();
-    if (!std::isfinite(length) || length < 1e-12f) {
-      normals_usable = false;
-      break;
-    }
-    normal /= length;
+  if (mesh.faces.empty()) {
+    G6D_THROW("LoadMesh: '" << path << "': has no triangles; " << kNoTrianglesHint);
   }
-  if (!normals_usable) ComputeVertexNormals(&mesh);
+  // File normals are kept when every part has them and all are usable; otherwise computed.
+  FinishNormals(all_normals, &mesh);
+  return mesh;
+}
+
+}  // namespace
+
+Mesh LoadMesh(const std::string& path, Units units) {
+  namespace fs = std::filesystem;
+  std::error_code fs_error;
+  if (!fs::exists(path, fs_error)) G6D_THROW("LoadMesh: '" << path << "': file does not exist");
+  if (!fs::is_regular_file(path, fs_error)) {
+    G6D_THROW("LoadMesh: '" << path << "': not a regular file");
+  }
+  if (fs::file_size(path, fs_error) == 0) G6D_THROW("LoadMesh: '" << path << "': file is empty");
+
+  Mesh mesh = IsPlyFile(path) ? LoadPlyMesh(path, units) : LoadAssimpMesh(path, units);
+  // Every face is a valid index triple here; a surface without area cannot be rendered or
+  // sampled.
+  const double area_m2 = ComputeSurfaceArea(mesh);
+  if (!(area_m2 > 0.0)) {
+    G6D_THROW("LoadMesh: '" << path << "': has no area: all " << mesh.faces.size()
+                            << " triangles are degenerate (repeated or collinear corners: a flattened or "
+                               "collapsed export?); export the object's surface again");
+  }
   return mesh;
 }
 

@@ -1,7 +1,8 @@
 #pragma once
 /// @file mesh.h
-/// Triangle meshes in metres, object frame. Loaded with assimp from PLY (vertex colours)
-/// or OBJ/MTL (texture), with explicit source units.
+/// Triangle meshes in metres, object frame. Loaded from PLY (vertex colours, texture) with
+/// our own reader (ply_reader.h), or with assimp from OBJ/MTL (texture), STL, glTF and
+/// the other formats assimp reads, with explicit source units.
 
 #include <cstdint>
 #include <string>
@@ -46,15 +47,20 @@ struct Mesh {
 bool IsClosedAndOriented(const Mesh& mesh);
 
 /// Loads a mesh, merging all assimp sub-meshes (with their node transforms), scaling to
-/// metres. Polygons are triangulated; points and lines are dropped. PLY vertex colours are
-/// kept (alpha dropped); an OBJ/MTL diffuse texture is read (path relative to the OBJ's
-/// folder) with its UVs. When parts use different textures, or some parts are untextured,
+/// metres. Polygons are triangulated; points and lines are dropped. A PLY file (recognized
+/// by its `ply` magic line) is read by ReadPly() with its vertices in file order: vertex
+/// colours kept (alpha dropped), a `comment TextureFile` image read with the vertex (or
+/// face-corner) texture coordinates. An OBJ/MTL diffuse texture is read (path relative to
+/// the OBJ's folder) with its UVs. When parts use different textures, or some parts are untextured,
 /// one atlas texture is built (textures stacked vertically, a solid patch of the material
 /// colour per untextured part) and the UVs are remapped into it. Normals come from the file
 /// when every part has them, else they are computed (area-weighted).
-/// Throws g6d::Error naming the file and the problem when it is missing, empty, not
-/// parseable, holds no meshes, holds non-triangle faces (points, lines) only, has
-/// non-finite vertices or out-of-range indices, or references a texture that cannot be read.
+/// Throws g6d::Error naming the file, the problem and what to do when it is missing, empty,
+/// not parseable (for PLY: a body that does not match its header), holds no meshes, holds
+/// non-triangle faces (points, lines) only, has non-finite vertices or out-of-range indices,
+/// has no area (every triangle degenerate), references a texture that cannot be read, or
+/// when what assimp read disagrees with what the file declares about itself (a binary STL's
+/// triangle count, a glTF's position bounds and triangle counts: ReadMeshFileHeader()).
 Mesh LoadMesh(const std::string& path, Units units);
 
 /// Largest distance between any two vertices, metres (BOP's definition of the diameter).
