@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/error.h"
 #include "core/executor.h"
 #include "render/raster.h"
 #include "solver/ppf.h"
@@ -12,6 +13,10 @@
 
 namespace g6d {
 namespace {
+
+using test::AxisAngle;
+using test::LmoCamera;
+using test::MakeCube;
 
 // Two boxes joined off-centre: an object with no symmetry, 50 + 30 mm long.
 Mesh MakeLShape() {
