@@ -16,6 +16,7 @@
 #include "bot_core/image_t.hpp"
 #include "render/raster.h"
 #include "service/service.h"
+#include "service_fixture.h"
 #include "service_test_util.h"
 #include "test_bank.h"
 #include "wire/image_codec.h"
@@ -111,7 +112,7 @@ class PictureListener {
   lcm::Subscription* subscription_ = nullptr;
 };
 
-class DebugImagesTest : public ::testing::Test {
+class DebugImagesTest : public test::InProcessServiceTest {
  protected:
   static void SetUpTestSuite() {
     scene_ = new test::ServiceScene(
@@ -120,36 +121,22 @@ class DebugImagesTest : public ::testing::Test {
   static void TearDownTestSuite() { delete scene_; }
 
   static ServiceOptions Options(const std::string& suffix) {
-    ServiceOptions options;
-    options.templates_dir = "unused-in-process";
-    options.input_channel = "G6D_RGBD_" + suffix;
-    options.output_channel = "G6D_POSES_" + suffix;
-    options.status_channel = "G6D_STATUS_" + suffix;
+    ServiceOptions options = test::InProcessServiceOptions(suffix);
     options.debug_images.channel = "G6D_DEBUG_" + suffix;
-    options.workers = 2;
-    options.solver = test::QuickSolverOptions();
     // Every view is a detection: the picture is about one answer at a time.
     options.tracking.enabled = false;
     return options;
   }
 
   void StartService(const ServiceOptions& options) {
-    options_ = options;
-    TemplateStore store;
-    store.banks[test::kBoxId] = std::make_shared<TemplateBank>(scene_->bank);
-    listener_ = std::make_unique<test::ServiceListener>(&lcm_, options.output_channel,
-                                                        options.status_channel);
     pictures_ = std::make_unique<PictureListener>(&lcm_, options.debug_images.channel,
                                                   options.debug_images.type);
-    service_ = std::make_unique<Service>(options, std::move(store), &lcm_);
-    service_->Start();
+    InProcessServiceTest::StartService(options, test::StoreOf(scene_->bank));
   }
 
   pose_array_t Answer(const rgbd_frame_t& frame) {
-    EXPECT_EQ(lcm_.publish(options_.input_channel, &frame), 0);
-    std::optional<pose_array_t> answer = listener_->answers.Pop(seconds(60));
-    if (!answer) ADD_FAILURE() << "no answer within 60 s";
-    return answer.value_or(pose_array_t{});
+    Publish(frame);
+    return NextAnswer();
   }
 
   PictureListener::Picture NextPicture() {
@@ -159,18 +146,12 @@ class DebugImagesTest : public ::testing::Test {
   }
 
   void TearDown() override {
-    if (service_) service_->Stop();
-    service_.reset();
+    InProcessServiceTest::TearDown();
     pictures_.reset();
-    listener_.reset();
   }
 
   static test::ServiceScene* scene_;
-  lcm::LCM lcm_{"memq://"};
-  ServiceOptions options_;
-  std::unique_ptr<test::ServiceListener> listener_;
   std::unique_ptr<PictureListener> pictures_;
-  std::unique_ptr<Service> service_;
 };
 test::ServiceScene* DebugImagesTest::scene_ = nullptr;
 

@@ -1,5 +1,5 @@
 // scripts/demo.sh (the README's first command, without the package/build step) on the
-// embedded sample and on a BOP folder, and the README's g6d-make-sample / g6d-overlay
+// embedded sample and on a BOP folder, and docs/tools.md's g6d-make-sample / g6d-overlay
 // examples run as written (build/ and out/ mapped to this build and a temporary folder).
 
 #include <gmock/gmock.h>
@@ -118,9 +118,10 @@ TEST(DemoScript, RefusesAFolderThatIsNotBop) {
   EXPECT_THAT(run.output, HasSubstr("models_info.json is missing"));
 }
 
-// The README's command lines that start with build/tools/<tool>, continuation lines joined.
-std::vector<std::string> ReadmeCommands(const std::string& tool) {
-  std::ifstream readme(test::SourceDir() + "/README.md");
+// The command lines of docs/tools.md (where the README points for the tools) that start
+// with build/tools/<tool>, continuation lines joined.
+std::vector<std::string> ToolsDocCommands(const std::string& tool) {
+  std::ifstream readme(test::SourceDir() + "/docs/tools.md");
   std::vector<std::string> commands;
   std::string line, command;
   bool in_code = false;
@@ -163,11 +164,11 @@ std::string Localize(const std::string& command, const std::string& out_dir,
   return result;
 }
 
-TEST(Readme, SampleAndOverlayExamplesRunAsWritten) {
-  const std::vector<std::string> make_sample = ReadmeCommands("g6d-make-sample");
-  const std::vector<std::string> overlay = ReadmeCommands("g6d-overlay");
-  ASSERT_FALSE(make_sample.empty()) << "README.md shows no build/tools/g6d-make-sample command";
-  ASSERT_FALSE(overlay.empty()) << "README.md shows no build/tools/g6d-overlay command";
+TEST(ToolsDoc, SampleAndOverlayExamplesRunAsWritten) {
+  const std::vector<std::string> make_sample = ToolsDocCommands("g6d-make-sample");
+  const std::vector<std::string> overlay = ToolsDocCommands("g6d-overlay");
+  ASSERT_FALSE(make_sample.empty()) << "docs/tools.md shows no build/tools/g6d-make-sample command";
+  ASSERT_FALSE(overlay.empty()) << "docs/tools.md shows no build/tools/g6d-overlay command";
   const std::string out = test::ScratchDirs::Make("readme_sample") + "/out";
   for (const std::string& command : make_sample) {
     const test::CommandResult run = test::RunCommand(Localize(command, out, nullptr, nullptr));

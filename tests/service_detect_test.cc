@@ -15,6 +15,7 @@
 #include "core/se3.h"
 #include "eval/metrics.h"
 #include "service/service.h"
+#include "service_fixture.h"
 #include "service_test_util.h"
 #include "test_bank.h"
 #include "wire/names.h"
@@ -22,16 +23,6 @@
 namespace g6d {
 namespace {
 
-using std::chrono::seconds;
-
-// `view` in front of a wall 0.3 m behind the object: the support surface the proposals
-// remove, as a real camera sees a table or a wall.
-test::SyntheticView WithWall(test::SyntheticView view) {
-  const float wall_m = static_cast<float>(view.cam_from_object.translation().z() + 0.3);
-  view.depth = view.depth.clone();
-  view.depth.setTo(wall_m, view.depth <= 0.0f);
-  return view;
-}
 
 // A detection request: label 0, no box, `count` instances of `object_id`.
 instance_t DetectionRequest(const std::string& object_id, int32_t count) {
@@ -54,7 +45,9 @@ rgbd_frame_t WithRequests(rgbd_frame_t frame, const std::vector<instance_t>& ins
 using test::BoxPose;
 using test::SmallStep;
 
-class ServiceDetectTest : public ::testing::Test {
+using test::WithWall;
+
+class ServiceDetectTest : public test::InProcessServiceTest {
  protected:
   static void SetUpTestSuite() {
     // The bank built once per test binary (test_bank.h), shared with service_input_test.
@@ -64,31 +57,11 @@ class ServiceDetectTest : public ::testing::Test {
   static void TearDownTestSuite() { delete scene_; }
 
   void StartService(const std::string& suffix) {
-    options_.templates_dir = "unused-in-process";
-    options_.input_channel = "G6D_RGBD_" + suffix;
-    options_.output_channel = "G6D_POSES_" + suffix;
-    options_.status_channel = "G6D_STATUS_" + suffix;
-    options_.workers = 2;
-    options_.solver = test::QuickSolverOptions();
-    listener_ = std::make_unique<test::ServiceListener>(&lcm_, options_.output_channel,
-                                                        options_.status_channel);
-    TemplateStore store;
-    store.banks[test::kBoxId] = std::make_shared<TemplateBank>(scene_->bank);
-    service_ = std::make_unique<Service>(options_, std::move(store), &lcm_);
-    service_->Start();
+    test::SetInProcessServiceOptions(suffix, &options_);
+    InProcessServiceTest::StartService(options_, test::StoreOf(scene_->bank));
   }
 
-  pose_array_t Answer(const rgbd_frame_t& frame) {
-    EXPECT_EQ(lcm_.publish(options_.input_channel, &frame), 0);
-    std::optional<pose_array_t> answer = listener_->answers.Pop(seconds(120));
-    if (!answer) {
-      ADD_FAILURE() << "no answer within 120 s";
-      return pose_array_t{};
-    }
-    EXPECT_EQ(answer->seq, frame.seq);
-    EXPECT_EQ(answer->status, +pose_array_t::STATUS_OK) << answer->message;
-    return *answer;
-  }
+  pose_array_t Answer(const rgbd_frame_t& frame) { return AnswerOk(frame); }
 
   test::SyntheticView Render(const Eigen::Isometry3d& pose, uint64_t seed) {
     GlRenderer renderer(scene_->mesh);
@@ -98,17 +71,7 @@ class ServiceDetectTest : public ::testing::Test {
         test::RenderSyntheticView(&renderer, scene_->mesh, test::kServiceCamera, pose, options));
   }
 
-  void TearDown() override {
-    if (service_) service_->Stop();
-    service_.reset();
-    listener_.reset();
-  }
-
   static test::ServiceScene* scene_;
-  lcm::LCM lcm_{"memq://"};
-  ServiceOptions options_;
-  std::unique_ptr<test::ServiceListener> listener_;
-  std::unique_ptr<Service> service_;
 };
 test::ServiceScene* ServiceDetectTest::scene_ = nullptr;
 

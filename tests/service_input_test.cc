@@ -17,6 +17,7 @@
 #include "core/se3.h"
 #include "eval/metrics.h"
 #include "service/service.h"
+#include "service_fixture.h"
 #include "service_test_util.h"
 #include "test_bank.h"
 #include "wire/names.h"
@@ -24,7 +25,6 @@
 namespace g6d {
 namespace {
 
-using std::chrono::seconds;
 
 constexpr int kNumViews = 2;
 // A second object: the scene's box 1.3 times larger, with the same print (so its templates
@@ -33,17 +33,6 @@ constexpr char kLargeBoxId[] = "box_000002";
 // The margin g6d-bench-dataset --degrade-masks box and g6d-bop2lcm --instances box add
 // around the visible mask's bounding box, pixels.
 constexpr int kBoxMarginPx = 6;
-
-// `view` in front of a wall 0.3 m behind the object (the rendered views have no depth
-// off the object). Pixels without depth cannot tell the solver what part of a box is not
-// the object (region.h keeps them), so a box needs a background the depth sees, as a real
-// camera sees a table or a wall.
-test::SyntheticView WithWall(test::SyntheticView view) {
-  const float wall_m = static_cast<float>(view.cam_from_object.translation().z() + 0.3);
-  view.depth = view.depth.clone();  // the copy shares its pixels with the scene's view
-  view.depth.setTo(wall_m, view.depth <= 0.0f);
-  return view;
-}
 
 // The frame's instance 0 as a box: label 0, the bounding box of the view's mask grown by
 // kBoxMarginPx, and no label image at all.
@@ -71,7 +60,9 @@ rgbd_frame_t AsUnknown(rgbd_frame_t frame, const std::vector<std::string>& candi
 using test::BoxPose;
 using test::SmallStep;
 
-class ServiceInputTest : public ::testing::Test {
+using test::WithWall;
+
+class ServiceInputTest : public test::InProcessServiceTest {
  protected:
   static void SetUpTestSuite() {
     // Banks built once per test binary, not once per case (test_bank.h).
@@ -90,37 +81,21 @@ class ServiceInputTest : public ::testing::Test {
 
   // The box's bank, and the larger box's when `with_large`.
   static TemplateStore Store(bool with_large) {
-    TemplateStore store;
-    store.banks[test::kBoxId] = std::make_shared<TemplateBank>(scene_->bank);
+    TemplateStore store = test::StoreOf(scene_->bank);
     if (with_large) store.banks[kLargeBoxId] = std::make_shared<TemplateBank>(*large_bank_);
     return store;
   }
 
   void StartService(const std::string& suffix, bool with_large) {
-    options_.templates_dir = "unused-in-process";
-    options_.input_channel = "G6D_RGBD_" + suffix;
-    options_.output_channel = "G6D_POSES_" + suffix;
-    options_.status_channel = "G6D_STATUS_" + suffix;
-    options_.workers = 2;
-    options_.solver = test::QuickSolverOptions();
-    listener_ = std::make_unique<test::ServiceListener>(&lcm_, options_.output_channel,
-                                                        options_.status_channel);
-    service_ = std::make_unique<Service>(options_, Store(with_large), &lcm_);
-    service_->Start();
+    test::SetInProcessServiceOptions(suffix, &options_);
+    InProcessServiceTest::StartService(options_, Store(with_large));
   }
 
   // The answer to `frame`, checked to be a whole-frame OK with one estimate per instance.
   pose_array_t Answer(const rgbd_frame_t& frame) {
-    EXPECT_EQ(lcm_.publish(options_.input_channel, &frame), 0);
-    std::optional<pose_array_t> answer = listener_->answers.Pop(seconds(120));
-    if (!answer) {
-      ADD_FAILURE() << "no answer within 120 s";
-      return pose_array_t{};
-    }
-    EXPECT_EQ(answer->seq, frame.seq);
-    EXPECT_EQ(answer->status, +pose_array_t::STATUS_OK) << answer->message;
-    EXPECT_EQ(answer->num_estimates, frame.num_instances);
-    return *answer;
+    const pose_array_t answer = AnswerOk(frame);
+    EXPECT_EQ(answer.num_estimates, frame.num_instances);
+    return answer;
   }
 
   static void ExpectWithinTenthDiameter(const pose_estimate_t& estimate, const Mesh& mesh,
@@ -130,19 +105,9 @@ class ServiceInputTest : public ::testing::Test {
         << "S_A " << estimate.score << ", mode " << EstimateModeName(estimate.mode);
   }
 
-  void TearDown() override {
-    if (service_) service_->Stop();
-    service_.reset();
-    listener_.reset();
-  }
-
   static test::ServiceScene* scene_;
   static Mesh* large_mesh_;
   static TemplateBank* large_bank_;
-  lcm::LCM lcm_{"memq://"};
-  ServiceOptions options_;
-  std::unique_ptr<test::ServiceListener> listener_;
-  std::unique_ptr<Service> service_;
 };
 test::ServiceScene* ServiceInputTest::scene_ = nullptr;
 Mesh* ServiceInputTest::large_mesh_ = nullptr;

@@ -19,6 +19,7 @@
 #include "core/hash.h"
 #include "process_util.h"
 #include "service/service.h"
+#include "service_fixture.h"
 #include "service_test_util.h"
 #include "templates/cache.h"
 #include "test_bank.h"
@@ -64,7 +65,7 @@ std::string RefusalOf(const service_status_t& status, const std::string& path) {
   return "";
 }
 
-class ServiceReloadTest : public ::testing::Test {
+class ServiceReloadTest : public test::InProcessServiceTest {
  protected:
   static void SetUpTestSuite() {
     scene_ = new test::ServiceScene(test::MakeServiceScene(1, 11, test::SharedBankBuilder("reload-scene")));
@@ -79,9 +80,7 @@ class ServiceReloadTest : public ::testing::Test {
     WriteCache(test::kBoxId, dir_ + "/" + test::kBoxId + ".g6dcache");
   }
   void TearDown() override {
-    if (service_) service_->Stop();
-    service_.reset();
-    listener_.reset();
+    InProcessServiceTest::TearDown();
     std::filesystem::remove_all(dir_);
     std::filesystem::remove_all(staging_);
   }
@@ -95,17 +94,11 @@ class ServiceReloadTest : public ::testing::Test {
   }
 
   void StartService(const std::string& suffix) {
+    test::SetInProcessServiceOptions(suffix, &options_);
     options_.templates_dir = dir_;
-    options_.input_channel = "G6D_RGBD_" + suffix;
-    options_.output_channel = "G6D_POSES_" + suffix;
-    options_.status_channel = "G6D_STATUS_" + suffix;
-    options_.workers = 2;
     options_.status_period_s = 0.1;
-    options_.solver = test::QuickSolverOptions();
     ASSERT_TRUE(options_.reload) << "reloading is on by default";
-    listener_ = std::make_unique<test::ServiceListener>(&lcm_, options_.output_channel, options_.status_channel);
-    service_ = std::make_unique<Service>(options_, LoadTemplateStore(dir_), &lcm_);
-    service_->Start();
+    InProcessServiceTest::StartService(options_, LoadTemplateStore(dir_));
   }
 
   /// The estimate answering a frame of the scene's view naming `object_id` (frames 33 ms
@@ -135,10 +128,6 @@ class ServiceReloadTest : public ::testing::Test {
   static constexpr int64_t kStartUtime = 1700000000000000LL;
   static test::ServiceScene* scene_;
   std::string dir_, staging_;
-  lcm::LCM lcm_{"memq://"};
-  ServiceOptions options_;
-  std::unique_ptr<test::ServiceListener> listener_;
-  std::unique_ptr<Service> service_;
   int64_t seq_ = 1;
 };
 test::ServiceScene* ServiceReloadTest::scene_ = nullptr;

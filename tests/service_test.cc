@@ -18,6 +18,7 @@
 
 #include "core/se3.h"
 #include "eval/metrics.h"
+#include "service_fixture.h"
 #include "service_test_util.h"
 #include "test_bank.h"
 #include "wire/answer.h"
@@ -77,7 +78,7 @@ void ExpectConsistentExtraFields(const pose_estimate_t& estimate) {
   }
 }
 
-class ServiceTest : public ::testing::Test {
+class ServiceTest : public test::InProcessServiceTest {
  protected:
   static void SetUpTestSuite() {
     scene_ = new test::ServiceScene(test::MakeServiceScene(kNumViews, 11, test::SharedBankBuilder("service-scene")));
@@ -85,54 +86,21 @@ class ServiceTest : public ::testing::Test {
   static void TearDownTestSuite() { delete scene_; }
 
   static TemplateStore Store() {
-    TemplateStore store;
-    store.banks[test::kBoxId] = std::make_shared<TemplateBank>(scene_->bank);
+    TemplateStore store = test::StoreOf(scene_->bank);
     store.loaded.push_back({"memory", test::kBoxId, static_cast<int>(scene_->bank.templates.size()),
                             scene_->bank.diameter_m, /*hash=*/"", FileSignature()});
     return store;
   }
 
   static ServiceOptions Options(const std::string& suffix) {
-    ServiceOptions options;
-    options.templates_dir = "unused-in-process";
-    options.input_channel = "G6D_RGBD_" + suffix;
-    options.output_channel = "G6D_POSES_" + suffix;
-    options.status_channel = "G6D_STATUS_" + suffix;
-    options.workers = 2;
-    options.solver = test::QuickSolverOptions();
-    return options;
+    return test::InProcessServiceOptions(suffix);
   }
 
   void StartService(const ServiceOptions& options) {
-    options_ = options;
-    listener_ = std::make_unique<test::ServiceListener>(&lcm_, options.output_channel,
-                                                        options.status_channel);
-    service_ = std::make_unique<Service>(options, Store(), &lcm_);
-    service_->Start();
-  }
-
-  void Publish(const rgbd_frame_t& frame) {
-    ASSERT_EQ(lcm_.publish(options_.input_channel, &frame), 0);
-  }
-
-  /// The next answer, failing the test when none arrives within a generous bound.
-  pose_array_t NextAnswer() {
-    std::optional<pose_array_t> answer = listener_->answers.Pop(seconds(60));
-    if (!answer) ADD_FAILURE() << "no answer within 60 s";
-    return answer.value_or(pose_array_t{});
-  }
-
-  void TearDown() override {
-    if (service_) service_->Stop();
-    service_.reset();
-    listener_.reset();
+    InProcessServiceTest::StartService(options, Store());
   }
 
   static test::ServiceScene* scene_;
-  lcm::LCM lcm_{"memq://"};
-  ServiceOptions options_;
-  std::unique_ptr<test::ServiceListener> listener_;
-  std::unique_ptr<Service> service_;
 };
 test::ServiceScene* ServiceTest::scene_ = nullptr;
 

@@ -183,7 +183,7 @@ TEST(Tools, InspectRefusesABrokenCache) {
 namespace g6d {
 namespace {
 
-// The README's g6d-solve example on a real LM-O frame: the can (obj_000005) in scene 2,
+// docs/tools.md's g6d-solve example on a real LM-O frame: the can (obj_000005) in scene 2,
 // image 8, GT instance 1 (t = (-35.1, 168.3, 978.2) mm in scene_gt.json).
 TEST(Tools, SolveOnAnLmoFrame) {
   G6D_REQUIRE_SHARED_DATA("lmo/test/000002/rgb/000008.png");

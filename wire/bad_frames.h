@@ -2,7 +2,7 @@
 /// @file bad_frames.h
 /// Every kind of bad input g6d-service must answer with an error instead of a pose (or a
 /// crash), built from one good g6d_rgbd_frame_t, with the answer each must get. Shared by
-/// the service test (tests/service_test.cc) and the soak benchmark (bench/soak_main.cc),
+/// the service test (tests/service_test.cc) and the soak benchmark (bench/soak_runner.cc),
 /// so it lives in the wire layer, not in tests/.
 ///
 /// Two families:
