@@ -46,7 +46,7 @@ using ObjectData = g6d::bench::BenchObject;
 struct Tally {
   int total = 0;
   int correct[5] = {0, 0, 0, 0, 0};  // seed, pnp, observable, icp, final
-  int oracle_pnp = 0, oracle_kept = 0;  // some PnP pose / some kept pose is correct
+  int oracle_pnp = 0, oracle_kept = 0, oracle_ppf = 0;  // some PnP / kept / PPF pose is correct
   int oracle_pnp_rot = 0, oracle_kept_rot = 0;  // some PnP / kept pose within 15 deg of GT rotation
   int search_failures = 0, score_failures = 0;  // misses with S(GT) < S_A / S(GT) >= S_A (--score-gt)
   int right_identity = 0;                        // --identity unknown: the true object was chosen
@@ -137,8 +137,19 @@ int main(int argc, char** argv) {
   app.add_flag("--no-appearance", no_appearance, "no appearance tie-break among finalists (ablation)");
   bool no_ppf = false;
   app.add_flag("--no-ppf", no_ppf, "no point-pair-feature hypotheses: ORB-PnP alone (ablation)");
-  int ppf_stride = 0;
-  app.add_option("--ppf-stride", ppf_stride, "point-pair features: every N-th scene point is a reference (0 = default)");
+  g6d::PpfSearchOptions ppf_options;
+  app.add_option("--ppf-stride", ppf_options.reference_stride, "point-pair features: every N-th scene point is a reference")
+      ->capture_default_str();
+  app.add_option("--ppf-poses", ppf_options.max_poses, "point-pair features: pose clusters kept")->capture_default_str();
+  app.add_option("--ppf-bucket", ppf_options.max_bucket_fraction,
+                 "point-pair features: features holding more than this fraction of the model's pairs are not looked up")
+      ->capture_default_str();
+  app.add_option("--ppf-spread", ppf_options.neighbour_spread, "point-pair features: neighbouring-bin spread")
+      ->capture_default_str();
+  int ppf_reserved = -1;
+  app.add_option("--ppf-reserved", ppf_reserved, "point-pair features: K slots reserved for the best-voted PPF poses (-1 = default)");
+  app.add_option("--ppf-peaks", ppf_options.peaks_per_reference, "point-pair features: peaks per reference point")
+      ->capture_default_str();
   std::string mask_trust = "depth";
   app.add_option("--mask-trust", mask_trust, "how the mask is read: depth (evidence checked by the depth) or exact (the paper's; ablation)")
       ->capture_default_str();
@@ -255,7 +266,8 @@ int main(int argc, char** argv) {
     options.budget_ms = budget_ms;
     if (no_appearance) options.appearance_tiebreak = false;
     if (no_ppf) options.use_ppf = false;
-    if (ppf_stride > 0) options.ppf.reference_stride = ppf_stride;
+    options.ppf = ppf_options;
+    if (ppf_reserved >= 0) options.ppf_reserved_hypotheses = ppf_reserved;
     if (no_occlusion) options.score.occlusion_margin_m = 0.0;
     options.mask_trust = g6d::ParseMaskTrust(mask_trust);
     options.split_merged_at_creases = crease_split;
@@ -523,6 +535,7 @@ int main(int argc, char** argv) {
           if (oracle) {
             tally.oracle_pnp += any_correct(s.pnp_poses);
             tally.oracle_kept += any_correct(s.kept_poses);
+            tally.oracle_ppf += any_correct(s.ppf_poses);
             tally.oracle_pnp_rot += any_rotation(s.pnp_poses);
             tally.oracle_kept_rot += any_rotation(s.kept_poses);
           }
@@ -653,15 +666,17 @@ int main(int argc, char** argv) {
     std::printf("| **all** | %d", all.total);
     for (int k = 0; k < 5; ++k) std::printf(" | %.1f", 100.0 * all.correct[k] / std::max(1, all.total));
     if (oracle) {
-      int pnp = 0, kept = 0;
+      int pnp = 0, kept = 0, ppf = 0;
       for (const auto& [obj_id, tally] : tallies) {
+        ppf += tally.oracle_ppf;
         pnp += tally.oracle_pnp;
         kept += tally.oracle_kept;
-        std::printf(" |\noracle %s: some PnP pose correct %d/%d, some kept pose correct %d/%d; rotation < 15 deg: PnP %d, kept %d",
-                    g6d::BopObjectName(obj_id).c_str(), tally.oracle_pnp, tally.total, tally.oracle_kept, tally.total,
+        std::printf(" |\noracle %s: some PnP pose correct %d/%d, some PPF pose %d, some kept pose correct %d/%d; rotation < 15 deg: PnP %d, kept %d",
+                    g6d::BopObjectName(obj_id).c_str(), tally.oracle_pnp, tally.total, tally.oracle_ppf, tally.oracle_kept, tally.total,
                     tally.oracle_pnp_rot, tally.oracle_kept_rot);
       }
-      std::printf(" |\noracle all: some PnP pose correct %.1f%%, some kept pose correct %.1f%%", 100.0 * pnp / std::max(1, all.total),
+      std::printf(" |\noracle all: some PnP pose correct %.1f%%, some PPF pose %.1f%%, some kept pose correct %.1f%%",
+                  100.0 * pnp / std::max(1, all.total), 100.0 * ppf / std::max(1, all.total),
                   100.0 * kept / std::max(1, all.total));
     }
     if (score_gt) {

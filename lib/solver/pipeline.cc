@@ -34,6 +34,7 @@ std::string SolverOptions::Check() const {
   if (!bad.empty()) return bad;
   std::ostringstream out;
   if (num_hypotheses < 1) out << "SolverOptions.num_hypotheses must be >= 1 (got " << num_hypotheses << ")";
+  else if (ppf_reserved_hypotheses < 0) out << "SolverOptions.ppf_reserved_hypotheses must be >= 0 (got " << ppf_reserved_hypotheses << ")";
   else if (region_candidates < 0 || region_candidates > 16) out << "SolverOptions.region_candidates must be in [0, 16] (got " << region_candidates << ")";
   else if (!(region_search_confidence >= 0.0 && region_search_confidence <= 1.0)) out << "SolverOptions.region_search_confidence must be in [0, 1] (got " << region_search_confidence << ")";
   else if (!(neighbour_min_fraction > 0.0 && neighbour_min_fraction <= 1.0)) out << "SolverOptions.neighbour_min_fraction must be in (0, 1] (got " << neighbour_min_fraction << ")";
@@ -484,6 +485,28 @@ std::vector<Hypothesis> SelectObservable(const SolveContext& c, const std::vecto
     if (kept.empty()) c.stages->best_e_obs = observable[static_cast<size_t>(i)].e_obs;
     kept.push_back(h);
   }
+  // Reserved slots: the silhouette of a pose before ICP says little about a textureless part
+  // whose outline many wrong poses share, while the depth's vote already ranked the PPF poses.
+  // The best-voted PPF poses E_obs left out replace the last PnP poses kept.
+  int ppf_kept = 0;
+  for (const Hypothesis& h : kept) ppf_kept += h.set_rank < 0;
+  size_t replace = kept.size();
+  for (size_t i = 0; i < hypotheses.size() && ppf_kept < options.ppf_reserved_hypotheses; ++i) {
+    const Hypothesis& h = hypotheses[i];
+    if (h.set_rank >= 0) continue;
+    bool already = false;
+    for (const Hypothesis& k : kept) already = already || (k.set_rank < 0 && k.cam_from_object.isApprox(h.cam_from_object));
+    if (already) continue;
+    while (replace > 0 && kept[replace - 1].set_rank < 0) --replace;
+    if (kept.size() < static_cast<size_t>(options.num_hypotheses)) {
+      kept.push_back(h);
+    } else if (replace > 1) {
+      kept[--replace] = h;
+    } else {
+      break;
+    }
+    ++ppf_kept;
+  }
   return kept;
 }
 
@@ -678,6 +701,7 @@ void RunPpfStage(const SolveContext& c, Search* search) {
   const double distinct_m = c.options.distinct_pose_fraction * c.bank.diameter_m;
   const size_t pnp_count = search->hypotheses.size();
   for (const PpfPose& pose : poses) {
+    stages.ppf_poses.push_back(pose.cam_from_object);
     bool distinct = true;
     for (size_t k = 0; k < pnp_count && distinct && c.options.merge_pnp_poses; ++k) {
       distinct = !c.comparer.Within(pose.cam_from_object, search->hypotheses[k].cam_from_object, distinct_m);

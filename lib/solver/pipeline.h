@@ -92,6 +92,9 @@ struct SolverOptions {
   /// a PPF model (TemplateBank::ppf); the two sources' poses meet in observable selection.
   bool use_ppf = true;
   PpfSearchOptions ppf;
+  /// Of the K slots of observable selection, up to this many go to the PPF poses with the
+  /// most votes when E_obs did not keep them (they replace the PnP poses ranked last).
+  int ppf_reserved_hypotheses = 6;
   int num_hypotheses = 18;      ///< N_H = K: hypotheses kept after observable selection
   ScoreOptions score;           ///< ω_C = 0.70, λ_S = 10
   GridOptions selection_grid = [] {
@@ -283,6 +286,7 @@ struct StageReport {
   /// Every valid MSAC-PnP pose (in template rank order) and the N_H kept after observable
   /// selection (best E_obs first), for oracle analyses ("was a good hypothesis there?").
   std::vector<Eigen::Isometry3d> pnp_poses, kept_poses;
+  std::vector<Eigen::Isometry3d> ppf_poses;  ///< every point-pair-feature pose, most votes first
   MhpoReport mhpo;
 };
 
