@@ -132,9 +132,21 @@ def _validate(self):
     return self
 
 
+def _changed(values, default):
+    """The entries of `values` that differ from `default`, recursively."""
+    out = {}
+    for k, v in values.items():
+        if isinstance(v, dict):
+            v = _changed(v, default[k])
+            if v:
+                out[k] = v
+        elif v != default[k]:
+            out[k] = v
+    return out
+
+
 def _repr(self):
-    default = type(self)().as_dict()
-    changed = {k: v for k, v in self.as_dict().items() if v != default[k]}
+    changed = _changed(self.as_dict(), type(self)().as_dict())
     return f"{type(self).__name__}({', '.join(f'{k}={v!r}' for k, v in changed.items())})"
 
 
