@@ -28,6 +28,7 @@ g6d.Error (a RuntimeError).
 
 import copy as _copy
 import enum as _enum
+import os as _os
 
 from . import _core
 from ._core import (AppearanceOptions, CropOptions, DetectOptions, Error, GridOptions, IcpOptions,
@@ -267,14 +268,28 @@ class Detections(list):
 # --------------------------------------------------------------------------------------
 # Templates
 
-def _progress_printer(done, total):
-    import sys
-    width = 30
-    filled = width * done // total if total else width
-    sys.stderr.write(f"\r[{'#' * filled}{' ' * (width - filled)}] {done}/{total}")
-    if done == total:
-        sys.stderr.write("\n")
-    sys.stderr.flush()
+class _ProgressPrinter:
+    """progress=True: a redrawn bar on a terminal, a line per 10% otherwise (as g6d-build-templates)."""
+
+    def __init__(self):
+        import sys
+        self.stream = sys.stderr
+        self.terminal = self.stream.isatty()
+        self.last_decile = 0
+
+    def __call__(self, done, total):
+        if self.terminal:
+            width = 30
+            filled = width * done // total if total else width
+            self.stream.write(f"\r[{'#' * filled}{' ' * (width - filled)}] {done}/{total}")
+            if done == total:
+                self.stream.write("\n")
+        else:
+            decile = 10 * done // total if total else 10
+            if decile != self.last_decile or done == total:
+                self.stream.write(f"templates {done}/{total}\n")
+                self.last_decile = decile
+        self.stream.flush()
 
 
 def build_templates(mesh_path, object_id, units, *, views=324, inplane=3, threads=2, progress=None,
@@ -305,10 +320,22 @@ def build_templates(mesh_path, object_id, units, *, views=324, inplane=3, thread
     build.views.num_inplane = inplane
     build.validate()
     if progress is True:
-        progress = _progress_printer
+        progress = _ProgressPrinter()
     elif progress is False:
         progress = None
-    return _core.build_templates(str(mesh_path), str(object_id), str(units), build, _threads(threads), progress)
+    return _core.build_templates(_os.fspath(mesh_path), str(object_id), str(units), build, _threads(threads), progress)
+
+
+_core_save = TemplateBank.save
+
+
+def _save(self, path, zstd_level=9):
+    """Writes the bank to a cache file (atomically: a temporary file, then a rename), as
+    g6d-build-templates does; load it with g6d.load_cache. Raises g6d.Error when it cannot write."""
+    _core_save(self, _os.fspath(path), zstd_level)
+
+
+TemplateBank.save = _save
 
 
 def load_cache(path, mesh_path=None):
@@ -318,7 +345,7 @@ def load_cache(path, mesh_path=None):
     Raises g6d.Error (a RuntimeError) naming the file and the problem: missing, not a cache,
     wrong format version, truncated or corrupted (checksum), a field out of range.
     """
-    return _core.load_cache(str(path), "" if mesh_path is None else str(mesh_path))
+    return _core.load_cache(_os.fspath(path), "" if mesh_path is None else _os.fspath(mesh_path))
 
 
 # --------------------------------------------------------------------------------------
@@ -436,10 +463,10 @@ def read_image(path, mode="unchanged"):
     (g6d-solve --rgb). 'gray': always uint8 (H, W) (g6d-solve --mask).
     Raises g6d.Error when the file cannot be read.
     """
-    return _core.read_image(str(path), mode)
+    return _core.read_image(_os.fspath(path), mode)
 
 
 def write_image(path, image):
     """Writes a uint8 or uint16 (H, W) or (H, W, 3) RGB array to an image file; the format
     follows the extension (.png, .jpg). Raises g6d.Error when it cannot write."""
-    _core.write_image(str(path), image)
+    _core.write_image(_os.fspath(path), image)
