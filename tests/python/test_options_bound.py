@@ -61,3 +61,14 @@ def test_every_field_is_bound(struct):
     missing = [f for f in expected if f not in bound]
     assert not missing, (f"{struct} ({STRUCTS[struct]}) has fields the Python module does not bind: {missing}; "
                          f"add G6D_FIELD({missing[0]}) to its list in tools/python/options.cc")
+
+
+def test_stub_lists_every_field():
+    """The .pyi stub declares each options class with the fields the module binds."""
+    import ast
+    stub = ast.parse((SOURCE_DIR / "tools" / "python" / "g6d" / "__init__.pyi").read_text())
+    classes = {node.name: node for node in stub.body if isinstance(node, ast.ClassDef)}
+    for struct in STRUCTS:
+        assert struct in classes, f"g6d/__init__.pyi has no class {struct}"
+        declared = [n.target.id for n in classes[struct].body if isinstance(n, ast.AnnAssign)]
+        assert declared == list(getattr(g6d, struct)._fields), f"g6d/__init__.pyi: {struct}"
