@@ -101,3 +101,24 @@ def test_overlay(sample_banks, image, tmp_path):
     assert np.array_equal(g6d.draw_overlay(frame, []), frame.rgb)
     g6d.write_image(tmp_path / "overlay.png", picture)
     assert np.array_equal(g6d.read_image(tmp_path / "overlay.png"), picture)
+
+
+def test_readme_python_lines_run_as_written(tmp_path):
+    """The README's Python section runs as written, in a folder holding out/sample."""
+    import re
+    import subprocess
+    import sys
+    from conftest import BUILD_DIR, SOURCE_DIR, run
+    readme = (SOURCE_DIR / "README.md").read_text()
+    section = readme[readme.index("\n## Python\n"):]
+    code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
+    made = run([BUILD_DIR / "tools" / "g6d-make-sample", "--out", tmp_path / "out" / "sample", "--frames", "1",
+                "--views", "36", "--inplane", "1", "--no-log"])
+    assert made.returncode == 0, made.stderr
+    import os
+    from pathlib import Path
+    environment = dict(os.environ, PYTHONPATH=str(Path(g6d.__file__).resolve().parents[1]))
+    done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True,
+                          env=environment)
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "overlay.png").exists()
