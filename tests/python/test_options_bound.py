@@ -1,6 +1,6 @@
-"""Every field of the options structs of lib/ is an attribute of its Python class, in the
-same order: a field added to a struct needs one G6D_FIELD line in tools/python/options.cc,
-and this test names the line that is missing. (A field removed from a struct fails the
+"""Every field of the options structs of lib/ is an attribute of its Python class: a field
+added to a struct needs one G6D_FIELD line in tools/python/types.cc, and this test names
+the line that is missing. (A field removed from a struct fails the
 module's compilation instead.)"""
 
 import re
@@ -60,7 +60,7 @@ def test_every_field_is_bound(struct):
     bound = list(getattr(g6d, struct)._fields) if hasattr(g6d, struct) else list(getattr(g6d._core, struct)._fields)
     missing = [f for f in expected if f not in bound]
     assert not missing, (f"{struct} ({STRUCTS[struct]}) has fields the Python module does not bind: {missing}; "
-                         f"add G6D_FIELD({missing[0]}) to its list in tools/python/options.cc")
+                         f"add G6D_FIELD({missing[0]}) to its list in tools/python/types.cc")
 
 
 def test_stub_lists_every_field():

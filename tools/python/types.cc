@@ -1,21 +1,26 @@
-// The options structs of lib/ as Python classes (g6d.SolverOptions, g6d.DetectOptions, ...):
-// one line per field, so that a field added to a struct is one line here too
-// (tests/python/test_options.py compares these lists with the headers and names any field
-// that is missing). Values are the C++ defaults, i.e. the service's; validation is the
+// What crosses the Python boundary as data (types.h): images and poses as numpy arrays,
+// results as dictionaries, and the options structs of lib/ as Python classes
+// (g6d.SolverOptions, g6d.DetectOptions, ...), one line per field, so that a field added to
+// a struct is one line here too (tests/python/test_options_bound.py compares these lists
+// with the headers and names any field that is missing). Values are the C++ defaults, i.e. the service's; validation is the
 // structs' own Check(), whose message names the bad field.
-#include "options.h"
+#include "types.h"
 
 #include <pybind11/stl.h>
 
-#include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include <Eigen/Geometry>
+
+#include "core/error.h"
 #include "mesh/mesh.h"
 #include "mesh/symmetry.h"
 #include "solver/detect.h"
 #include "solver/identify.h"
 #include "solver/pipeline.h"
+#include "solver/score.h"
 #include "templates/appearance.h"
 #include "templates/crop.h"
 #include "templates/features.h"
@@ -65,6 +70,148 @@ class OptionsClass {
 #define G6D_FIELD(name) .Add(#name, &T::name)
 
 }  // namespace
+
+// A numpy array that owns `mat` (moved to the heap; no copy of the pixels). Rows and
+// columns first, then channels when there are several.
+py::object MatToArray(cv::Mat mat) {
+  if (mat.empty()) return py::none();
+  auto* owned = new cv::Mat(std::move(mat));
+  py::capsule owner(owned, [](void* pointer) { delete static_cast<cv::Mat*>(pointer); });
+  const py::ssize_t element = static_cast<py::ssize_t>(owned->elemSize1());
+  std::vector<py::ssize_t> shape = {owned->rows, owned->cols};
+  std::vector<py::ssize_t> strides = {static_cast<py::ssize_t>(owned->step[0]),
+                                      static_cast<py::ssize_t>(owned->elemSize())};
+  if (owned->channels() > 1) {
+    shape.push_back(owned->channels());
+    strides.push_back(element);
+  }
+  py::dtype dtype;
+  switch (owned->depth()) {
+    case CV_8U: dtype = py::dtype::of<uint8_t>(); break;
+    case CV_16U: dtype = py::dtype::of<uint16_t>(); break;
+    case CV_32F: dtype = py::dtype::of<float>(); break;
+    case CV_64F: dtype = py::dtype::of<double>(); break;
+    default: throw Error("internal: no numpy dtype for OpenCV depth " + std::to_string(owned->depth()));
+  }
+  return py::array(dtype, shape, strides, owned->data, owner);
+}
+
+// A read-only numpy view of `mat` that keeps `owner` (the Python object holding it) alive.
+py::array ReadOnlyView(const cv::Mat& mat, const py::handle& owner) {
+  std::vector<py::ssize_t> shape = {mat.rows, mat.cols};
+  std::vector<py::ssize_t> strides = {static_cast<py::ssize_t>(mat.step[0]), static_cast<py::ssize_t>(mat.elemSize())};
+  if (mat.channels() > 1) {
+    shape.push_back(mat.channels());
+    strides.push_back(static_cast<py::ssize_t>(mat.elemSize1()));
+  }
+  const py::dtype dtype = mat.depth() == CV_8U ? py::dtype::of<uint8_t>() : py::dtype::of<float>();
+  py::array view(dtype, shape, strides, mat.data, owner);
+  view.attr("flags").attr("writeable") = false;
+  return view;
+}
+
+py::array_t<double> MatrixToArray(const Eigen::Matrix4d& matrix) {
+  py::array_t<double> array({4, 4});
+  auto out = array.mutable_unchecked<2>();
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) out(r, c) = matrix(r, c);
+  }
+  return array;
+}
+
+py::array_t<double> VectorToArray(std::initializer_list<double> values) {
+  py::array_t<double> array(static_cast<py::ssize_t>(values.size()));
+  std::copy(values.begin(), values.end(), array.mutable_data());
+  return array;
+}
+
+// Results as dictionaries (g6d.PoseResult wraps them).
+
+py::dict StagesDict(const StageReport& s) {
+  py::dict d;
+  d["query_features"] = s.query_features;
+  d["correspondence_sets"] = s.correspondence_sets;
+  d["search_regions"] = s.search_regions;
+  d["pnp_hypotheses"] = s.pnp_hypotheses;
+  d["kept_hypotheses"] = s.kept_hypotheses;
+  d["icp_converged"] = s.icp_converged;
+  d["sets_tried"] = s.sets_tried;
+  d["pnp_merged"] = s.pnp_merged;
+  d["icp_iterations"] = s.icp_iterations;
+  d["icp_runs_at_max"] = s.icp_runs_at_max;
+  d["icp_finished"] = s.icp_finished;
+  d["answer_hypothesis"] = s.answer_hypothesis;
+  d["answer_set_rank"] = s.answer_set_rank;
+  d["answer_quality_ratio"] = s.answer_quality_ratio;
+  d["mask_given_pixels"] = s.mask_given_pixels;
+  d["mask_support_leak"] = s.mask_support_leak;
+  d["mask_far_leak"] = s.mask_far_leak;
+  d["support_plane"] = s.support_plane;
+  d["surface_tolerance_m"] = s.surface_tolerance_m;
+  d["mask_wider_than_object"] = s.mask_wider_than_object;
+  d["mask_is_box"] = s.mask_is_box;
+  d["mask_too_thin"] = s.mask_too_thin;
+  d["depth_regions_solved"] = s.depth_regions_solved;
+  d["depth_region_chosen"] = s.depth_region_chosen;
+  d["mask_answer_score"] = s.mask_answer_score;
+  d["neighbour_pixels"] = s.neighbour_pixels;
+  d["neighbour_answer_chosen"] = s.neighbour_answer_chosen;
+  d["best_quality"] = s.best_quality;
+  d["best_e_obs"] = s.best_e_obs;
+  d["best_s_after_icp"] = s.best_s_after_icp;
+  d["distinct_finalists"] = s.distinct_finalists;
+  d["appearance_compared"] = s.appearance_compared;
+  d["appearance_changed"] = s.appearance_changed;
+  d["post_refine_ran"] = s.post_refine_ran;
+  d["post_refine_accepted"] = s.post_refine_accepted;
+  d["mhpo_early_stopped"] = s.mhpo.early_stopped;
+  d["mhpo_best_hypothesis"] = s.mhpo.best_hypothesis;
+  // Every stage's wall time, ms, by the names the service and g6d-solve use, then the rest.
+  py::dict times;
+  for (const StageTime& stage : StageTimes(s)) times[stage.name] = stage.ms;
+  times["mask_refine"] = s.mask_refine_ms;
+  times["depth_regions"] = s.depth_regions_ms;
+  times["neighbours"] = s.neighbours_ms;
+  d["time_ms"] = times;
+  return d;
+}
+
+py::dict ResultDict(PoseResult result, const BankPtr& bank) {
+  const Eigen::Quaterniond q(result.cam_from_object.linear());
+  const Eigen::Vector3d t = result.cam_from_object.translation();
+  py::dict d;
+  d["object_id"] = bank ? bank->object_id : std::string();
+  d["bank"] = bank ? py::cast(bank) : py::object(py::none());
+  d["success"] = result.success;
+  d["message"] = result.message;
+  d["termination"] = TerminationName(result.termination);
+  d["cam_from_object"] = MatrixToArray(result.cam_from_object.matrix());
+  // As g6d-solve writes them (Eigen's quaternion of the same matrix).
+  d["position_m"] = VectorToArray({t.x(), t.y(), t.z()});
+  d["orientation_wxyz"] = VectorToArray({q.w(), q.x(), q.y(), q.z()});
+  d["score"] = result.score;
+  d["confidence"] = result.confidence;
+  d["iou"] = result.details.iou;
+  d["coverage"] = result.details.coverage;
+  d["depth_residual"] = result.details.depth_residual;
+  d["truncated"] = result.truncated;
+  d["ambiguous"] = result.ambiguous;
+  d["cut_short"] = result.cut_short;
+  d["has_runner_up"] = result.has_runner_up;
+  d["runner_up_cam_from_object"] =
+      result.has_runner_up ? py::object(MatrixToArray(result.runner_up_cam_from_object.matrix())) : py::none();
+  d["runner_up_score"] = result.has_runner_up ? py::object(py::float_(result.runner_up_score)) : py::none();
+  d["appearance_agreement"] =
+      result.appearance_valid ? py::object(py::float_(result.appearance_agreement)) : py::none();
+  d["runner_up_appearance_agreement"] = result.runner_up_appearance_valid
+                                            ? py::object(py::float_(result.runner_up_appearance_agreement))
+                                            : py::none();
+  d["corrected_mask"] = MatToArray(std::move(result.corrected_mask));
+  d["mask_iou"] = result.mask_iou;
+  d["mask_refined_rounds"] = result.mask_refined_rounds;
+  d["stages"] = StagesDict(result.stages);
+  return d;
+}
 
 void BindOptions(py::module_& module) {
   py::enum_<MaskTrust>(module, "MaskTrust",
