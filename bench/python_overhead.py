@@ -16,7 +16,9 @@ time medians.
 
 Then the same solves (every instance, `--repeats` times) run once on one Python thread and
 once split over two Python threads (threads=1 per call): with the GIL released while
-solving, two threads take about half the time on two cores.
+solving, two threads take about half the time on two idle cores (on a busy machine the
+CPU use column shows how many cores the process got). Last, a Python thread spins beside
+one solve: its longest pause shows that the solve does not hold the GIL.
 
 Prints a Markdown table (bench/RESULTS.md, "Python").
 """
@@ -145,6 +147,29 @@ def main():
     print("|---|---|---|---|---|---|")
     print(f"| 1 | {len(work)} | {one:.2f} | {1000 * one / len(work):.1f} | 1.00 | {one_cpu / one:.2f} |")
     print(f"| 2 | {len(work)} | {two:.2f} | {1000 * two / len(work):.1f} | {one / two:.2f} | {two_cpu / two:.2f} |")
+
+    # The GIL during a solve, whatever the machine's load: a Python thread spins, stamping
+    # the time, while another thread solves; with the GIL held for the solve, the spinner
+    # would stop for the whole call.
+    bank, mask = work[0]
+    stamps, call = [], []
+
+    def solve_once():
+        call.append(time.perf_counter())
+        g6d.estimate_pose(frame, bank, mask=mask, threads=1)
+        call.append(time.perf_counter())
+
+    solver = threading.Thread(target=solve_once)
+    solver.start()
+    while solver.is_alive():
+        stamps.append(time.perf_counter())
+    solver.join()
+    inside = [t for t in stamps if call[0] <= t <= call[1]]
+    gaps = [b - a for a, b in zip(inside, inside[1:])]
+    longest = 1000 * max(gaps) if gaps else 1000 * (call[1] - call[0])
+    print(f"\nA Python thread spinning beside one solve ({1000 * (call[1] - call[0]):.0f} ms): "
+          f"{len(inside)} time stamps during the call, longest pause {longest:.1f} ms "
+          f"(the GIL held for the solve would pause it for the whole call)")
 
 
 if __name__ == "__main__":
