@@ -1,6 +1,6 @@
 """Python answers equal g6d-solve's on real data (../shared/data/ycbv_clutter): every
 target of the first image, and the detection run without masks. Skipped when the data is
-absent. The caches (72 templates per object) are built with g6d.build_templates once and
+absent. The caches (36 templates per object) are built with g6d.build_templates once and
 kept in the build folder."""
 
 import json
@@ -12,7 +12,7 @@ import pytest
 import g6d
 from conftest import BUILD_DIR, assert_same_answer, bop_images, solve_json
 
-VIEWS = 72
+VIEWS = 36
 # G6D_PYTHON_TEST_IMAGES=all compares every image (15 targets) instead of the first.
 ALL_IMAGES = os.environ.get("G6D_PYTHON_TEST_IMAGES") == "all"
 
