@@ -61,11 +61,11 @@ def test_masks_equal_g6d_solve(ycbv, tmp_path):
 def test_find_objects_equals_g6d_solve(ycbv, tmp_path):
     root, banks, cache_dir = ycbv
     image = bop_images(root / "test" / "000001")[0]
-    found = g6d.find_objects(image.frame(), [(banks[k], 1) for k in sorted(banks)], threads=2)
+    found = g6d.find_objects(image.frame(), [(banks[k], 1) for k in sorted(banks)], threads=2, num_hypotheses=4)
     arguments = []
     for k in sorted(banks):
         arguments += ["--cache", cache_dir / f"{k}_{VIEWS}.g6dcache"]
-    answer = solve_json(tmp_path, [*arguments, "--find-all", *image.solve_args()])
+    answer = solve_json(tmp_path, [*arguments, "--find-all", "--hypotheses", "4", *image.solve_args()])
     assert [r.object_id for r in found] == [a["object_id"] for a in answer["answers"]]
     for result, expected in zip(found, answer["answers"]):
         assert_same_answer(result, expected)
