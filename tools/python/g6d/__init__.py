@@ -90,8 +90,10 @@ def _set_options(options, values, where):
                     raise ValueError(f"{where}.{name}: expected one of "
                                      f"{', '.join(m.lower() for m in members)}, got {value!r}")
                 value = members[key]
-        elif isinstance(current, bool) and not isinstance(value, bool):
-            raise ValueError(f"{where}.{name}: expected True or False, got {value!r}")
+        elif isinstance(current, bool):
+            if type(value).__name__ not in ("bool", "bool_"):  # numpy.bool_ too
+                raise ValueError(f"{where}.{name}: expected True or False, got {value!r}")
+            value = bool(value)
         try:
             setattr(options, name, value)
         except TypeError:
