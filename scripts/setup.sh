@@ -15,7 +15,7 @@ PACKAGES=(
   libceres-dev libzstd-dev zlib1g-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libspdlog-dev libcli11-dev nlohmann-json3-dev libyaml-cpp-dev
-  python3
+  python3 python3-dev pybind11-dev python3-numpy python3-pytest
   clang libclang-rt-14-dev
 )
 
