@@ -146,8 +146,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--ppf-spread", ppf_options.neighbour_spread, "point-pair features: neighbouring-bin spread")
       ->capture_default_str();
-  int ppf_reserved = -1;
-  app.add_option("--ppf-reserved", ppf_reserved, "point-pair features: K slots reserved for the best-voted PPF poses (-1 = default)");
+  int ppf_extra_hypotheses = -1;
+  app.add_option("--ppf-hypotheses", ppf_extra_hypotheses, "point-pair features: PPF poses refined beside the K PnP poses (-1 = default)");
   app.add_option("--ppf-peaks", ppf_options.peaks_per_reference, "point-pair features: peaks per reference point")
       ->capture_default_str();
   std::string mask_trust = "depth";
@@ -228,6 +228,18 @@ int main(int argc, char** argv) {
                  "localization task (ids and instance counts from the targets, DetectObjects finds them)")
       ->check(CLI::IsMember({"gt", "none"}))
       ->capture_default_str();
+  app.add_option("--detect-ppf-extra", detect_options.ppf_extra,
+                 "--masks none: regions of the point-pair-feature vote solved per object beyond its count (0 = none)")
+      ->capture_default_str();
+  app.add_option("--detect-ppf-stride", detect_options.ppf_reference_stride,
+                 "--masks none: every N-th scene point is a reference of the vote over the frame")
+      ->capture_default_str();
+  app.add_option("--detect-max-free-space", detect_options.max_free_space,
+                 "--masks none: an answer seeing past its surface at more than this fraction of its pixels is none")
+      ->capture_default_str();
+  app.add_option("--detect-min-contour", detect_options.min_contour_support,
+                 "--masks none: an answer whose outline shows a depth step at less than this fraction is none")
+      ->capture_default_str();
   app.add_option("--detect-extra", detect_options.extra_candidates,
                  "--masks none: candidate regions solved per object beyond its count")
       ->capture_default_str();
@@ -267,7 +279,7 @@ int main(int argc, char** argv) {
     if (no_appearance) options.appearance_tiebreak = false;
     if (no_ppf) options.use_ppf = false;
     options.ppf = ppf_options;
-    if (ppf_reserved >= 0) options.ppf_reserved_hypotheses = ppf_reserved;
+    if (ppf_extra_hypotheses >= 0) options.ppf_hypotheses = ppf_extra_hypotheses;
     if (no_occlusion) options.score.occlusion_margin_m = 0.0;
     options.mask_trust = g6d::ParseMaskTrust(mask_trust);
     options.split_merged_at_creases = crease_split;

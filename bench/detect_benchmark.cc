@@ -92,13 +92,14 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
     times["support"].push_back(report.support_ms);
     times["segment"].push_back(report.segment_ms);
     times["propose"].push_back(report.propose_ms);
+    times["ppf"].push_back(report.ppf_ms);
     times["rank"].push_back(report.rank_ms);
     times["solve"].push_back(report.solve_ms);
     times["select"].push_back(report.select_ms);
     ++done;
-    std::fprintf(stderr, "[%d] scene %d im %d: %s, %.0f ms (support %.0f, segment %.0f, propose %.0f, rank %.0f, solve %.0f)\n",
+    std::fprintf(stderr, "[%d] scene %d im %d: %s, %.0f ms (support %.0f, segment %.0f, propose %.0f, ppf %.0f (%d regions), rank %.0f, solve %.0f)\n",
                  done, scene_id, im_id, report.message.c_str(), ms, report.support_ms, report.segment_ms,
-                 report.propose_ms, report.rank_ms, report.solve_ms);
+                 report.propose_ms, report.ppf_ms, report.ppf_regions, report.rank_ms, report.solve_ms);
     for (const Detection& detection : detections) {
       const int obj_id = obj_of_request[static_cast<size_t>(detection.request)];
       const BenchObject& object = objects.at(obj_id);
@@ -108,8 +109,9 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
         best = std::min(best, object.symmetric ? ComputeAdds(detection.result.cam_from_object, gt.cam_from_object, object.points)
                                                : ComputeAdd(detection.result.cam_from_object, gt.cam_from_object, object.points));
       }
-      std::fprintf(stderr, "    %s: S %.3f conf %.2f, ADD%s to the nearest GT %.1f mm (%.2f d)%s, region %d (%zu segments)\n",
+      std::fprintf(stderr, "    %s: S %.3f conf %.2f free %.2f contour %.2f, ADD%s to the nearest GT %.1f mm (%.2f d)%s, region %d (%zu segments)\n",
                    detection.object_id.c_str(), detection.result.score, detection.result.confidence,
+                   detection.check.free_space, detection.check.contour_support,
                    object.symmetric ? "-S" : "", best * 1000, best / object.diameter_m,
                    IsAddCorrect(best, object.diameter_m) ? "" : " WRONG", detection.proposal,
                    report.proposals[static_cast<size_t>(detection.proposal)].segments.size());
@@ -169,7 +171,7 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
               Percentile(image_ms, 0.5), Percentile(image_ms, 0.95), MeanOf(image_ms), Percentile(solves, 0.5),
               Percentile(regions, 0.5));
   std::printf("| stage | p50 | p95 |\n|---|---|---|\n");
-  for (const char* stage : {"support", "segment", "propose", "rank", "solve", "select"}) {
+  for (const char* stage : {"support", "segment", "propose", "ppf", "rank", "solve", "select"}) {
     std::printf("| %s | %.1f | %.1f |\n", stage, Percentile(times[stage], 0.5), Percentile(times[stage], 0.95));
   }
   struct rusage usage;

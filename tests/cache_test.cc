@@ -69,6 +69,14 @@ TemplateBank MakeBank(int num_templates, uint32_t seed) {
   bank.geometric_symmetries.diameter_m = 0.123;
   bank.geometric_symmetries.discrete.push_back(
       MakePose(ExpSO3(Eigen::Vector3d(M_PI, 0.0, 0.0)), Eigen::Vector3d(0.0, 0.002, 0.0)));
+  bank.options.ppf.step_fraction = 0.07;
+  bank.options.ppf.max_points = 500;
+  bank.ppf.options = bank.options.ppf;
+  bank.ppf.step_m = 0.0086;
+  for (int i = 0; i < 30; ++i) {
+    bank.ppf.points.emplace_back(0.05f * uniform(rng), 0.05f * uniform(rng), 0.05f * uniform(rng));
+    bank.ppf.normals.push_back(Eigen::Vector3f(uniform(rng), uniform(rng), 1.0f).normalized());
+  }
   for (int i = 0; i < 20; ++i) {
     bank.appearance.points.emplace_back(uniform(rng), uniform(rng), uniform(rng));
     bank.appearance.normals.push_back(Eigen::Vector3f(uniform(rng), uniform(rng), 1.0f).normalized());
@@ -149,6 +157,16 @@ void ExpectSameBank(const TemplateBank& a, const TemplateBank& b) {
   EXPECT_EQ(o.appearance.seed, p.appearance.seed);
   EXPECT_EQ(o.appearance.min_color_std, p.appearance.min_color_std);
   EXPECT_EQ(o.appearance.texture_max_side_px, p.appearance.texture_max_side_px);
+  EXPECT_EQ(o.build_ppf, p.build_ppf);
+  EXPECT_EQ(o.ppf.step_fraction, p.ppf.step_fraction);
+  EXPECT_EQ(o.ppf.angle_step_deg, p.ppf.angle_step_deg);
+  EXPECT_EQ(o.ppf.normal_cluster_deg, p.ppf.normal_cluster_deg);
+  EXPECT_EQ(o.ppf.surface_samples, p.ppf.surface_samples);
+  EXPECT_EQ(o.ppf.max_points, p.ppf.max_points);
+  EXPECT_EQ(o.ppf.seed, p.ppf.seed);
+  EXPECT_EQ(a.ppf.step_m, b.ppf.step_m);
+  EXPECT_EQ(a.ppf.points, b.ppf.points);
+  EXPECT_EQ(a.ppf.normals, b.ppf.normals);
   const MeshSymmetries& g = a.geometric_symmetries;
   const MeshSymmetries& h = b.geometric_symmetries;
   EXPECT_EQ(g.revolution, h.revolution);
@@ -259,7 +277,10 @@ TEST(TemplateCache, RoundTripIsExact) {
   const std::string dir = test::TempDir("cache_round_trip");
   const std::string path = dir + "/obj.g6dcache";
   WriteTemplateCache(bank, path);
-  ExpectSameBank(bank, ReadTemplateCache(path));
+  const TemplateBank read = ReadTemplateCache(path);
+  ExpectSameBank(bank, read);
+  // The point-pair-feature table is derived on reading: every ordered pair of its 30 points.
+  EXPECT_EQ(read.ppf.entries.size(), 30u * 29u);
   // No temporary file is left beside the cache.
   int files = 0;
   for (const auto& entry : std::filesystem::directory_iterator(dir)) {
@@ -324,8 +345,8 @@ TEST(TemplateCache, WrongVersionIsRefused) {
   std::string file = EncodedBank(MakeBank(1, 6), "cache_version");
   file[8] = 1;  // a version-1 cache (before symmetries and appearance samples)
   ResealHeader(&file);
-  ExpectRefused(file, "unsupported cache format version 1 (expected 2; version 2 stores the mesh's geometric "
-                      "symmetries and appearance samples)");
+  ExpectRefused(file, "unsupported cache format version 1 (expected 3; version 3 stores the point-pair-feature "
+                      "model that finds texture-less objects); rebuild it with g6d-build-templates");
   file[8] = 2;  // even an unsealed header with the right version is still checked
   file[9] = 1;
   ExpectRefused(file, "unsupported cache format version 258");
@@ -349,6 +370,7 @@ TEST(TemplateCache, CommittedFuzzSeedsAreOfTheCurrentFormat) {
   const TemplateBank two = ParseTemplateCache(ReadBytes(dir + "valid_cache_2_templates"), "two");
   EXPECT_FALSE(two.geometric_symmetries.discrete.empty());
   EXPECT_FALSE(two.appearance.Empty());
+  EXPECT_FALSE(two.ppf.points.empty());
   for (const char* name :
        {"valid_body_no_templates", "valid_body_1_template", "valid_body_2_templates"}) {
     SCOPED_TRACE(name);

@@ -177,12 +177,20 @@ int main(int argc, char** argv) {
   app.add_option("--online-faces", options.online_mesh_faces, "faces of the online mesh")
       ->capture_default_str();
   app.add_option("--zstd-level", zstd_level, "zstd compression level")->capture_default_str();
+  bool no_ppf = false;
+  app.add_flag("--no-ppf", no_ppf, "no point-pair-feature model (the solver then uses ORB-PnP hypotheses alone)");
+  app.add_option("--ppf-step", options.ppf.step_fraction,
+                 "point-pair-feature model: sampling step as a fraction of the diameter")
+      ->capture_default_str();
+  app.add_option("--ppf-max-points", options.ppf.max_points, "point-pair-feature model: points at most")
+      ->capture_default_str();
   app.add_option("--models-info", models_info_path,
                  "BOP models_info.json to read the object's symmetries from");
   app.add_option("--continuous-steps", continuous_steps,
                  "samples of a continuous symmetry (with --models-info)")
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  options.build_ppf = !no_ppf;
 
   try {
     if (num_inplane < 1) G6D_THROW("--inplane must be >= 1 (got " << num_inplane << ")");

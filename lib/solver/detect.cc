@@ -13,7 +13,9 @@
 
 #include "core/error.h"
 #include "core/timer.h"
+#include "render/raster.h"
 #include "solver/plane.h"
+#include "solver/ppf.h"
 
 namespace g6d {
 
@@ -41,6 +43,16 @@ std::string DetectOptions::Check() const {
   else if (explain_away_passes < 0) out << "DetectOptions.explain_away_passes must be >= 0 (got " << explain_away_passes << ")";
   else if (!(max_score > 0.0)) out << "DetectOptions.max_score must be > 0 (got " << max_score << ")";
   else if (!(max_overlap >= 0.0 && max_overlap <= 1.0)) out << "DetectOptions.max_overlap must be in [0, 1] (got " << max_overlap << ")";
+  else if (ppf_extra < 0) out << "DetectOptions.ppf_extra must be >= 0 (got " << ppf_extra << ")";
+  else if (ppf_reference_stride < 1) out << "DetectOptions.ppf_reference_stride must be >= 1 (got " << ppf_reference_stride << ")";
+  else if (ppf_max_scene_points < 10) out << "DetectOptions.ppf_max_scene_points must be >= 10 (got " << ppf_max_scene_points << ")";
+  else if (!(ppf_surface_fraction > 0.0 && ppf_surface_fraction < 1.0)) out << "DetectOptions.ppf_surface_fraction must be in (0, 1) (got " << ppf_surface_fraction << ")";
+  else if (!(ppf_min_contour_support >= 0.0 && ppf_min_contour_support <= 1.0)) out << "DetectOptions.ppf_min_contour_support must be in [0, 1] (got " << ppf_min_contour_support << ")";
+  else if (!(max_free_space >= 0.0 && max_free_space <= 1.0)) out << "DetectOptions.max_free_space must be in [0, 1] (got " << max_free_space << ")";
+  else if (!(free_space_fraction > 0.0)) out << "DetectOptions.free_space_fraction must be > 0 (got " << free_space_fraction << ")";
+  else if (!(min_contour_support >= 0.0 && min_contour_support <= 1.0)) out << "DetectOptions.min_contour_support must be in [0, 1] (got " << min_contour_support << ")";
+  else if (!(ppf_contour_step_m >= 0.0)) out << "DetectOptions.ppf_contour_step_m must be >= 0 (got " << ppf_contour_step_m << ")";
+  else if (!(ppf_max_free_space >= 0.0 && ppf_max_free_space <= 1.0)) out << "DetectOptions.ppf_max_free_space must be in [0, 1] (got " << ppf_max_free_space << ")";
   return out.str();
 }
 
@@ -249,6 +261,7 @@ cv::Mat RegionMask(const cv::Mat& labels, const Proposal& proposal) {
 // depth, or a depth fragment; not support, no other segment) within `gap_px` of them: the
 // dark rims at the object's edges and the holes in its depth.
 cv::Mat FilledRegionMask(const cv::Mat& labels, const cv::Mat& support, const Proposal& proposal, int gap_px) {
+  if (!proposal.mask.empty()) return proposal.mask;  // a voted pose's surface: whole already
   cv::Mat mask = RegionMask(labels, proposal);
   if (gap_px <= 0) return mask;
   cv::Mat grown;
@@ -355,6 +368,146 @@ std::vector<Proposal> FormRegions(const DepthSegmentation& segmentation, const s
   return proposals;
 }
 
+// The fraction of a rendering's outline where the observed depth steps: for each rendered
+// pixel with an unrendered 4-neighbour `gap` pixels away, the observed depth there is
+// farther or nearer than the rendered depth by more than `step_m` (where it has depth).
+double ContourSupport(const cv::Mat& rendered, const cv::Mat& observed, int gap, float step_m) {
+  int outline = 0, stepped = 0;
+  const int rows = rendered.rows, cols = rendered.cols;
+  static const int kDu[4] = {1, -1, 0, 0}, kDv[4] = {0, 0, 1, -1};
+  for (int v = 0; v < rows; ++v) {
+    const float* r = rendered.ptr<float>(v);
+    for (int u = 0; u < cols; ++u) {
+      if (!(r[u] > 0.0f)) continue;
+      for (int k = 0; k < 4; ++k) {
+        const int x = u + kDu[k] * gap, y = v + kDv[k] * gap;
+        const int x1 = u + kDu[k], y1 = v + kDv[k];
+        if (x < 0 || y < 0 || x >= cols || y >= rows) continue;
+        if (rendered.at<float>(y1, x1) > 0.0f || rendered.at<float>(y, x) > 0.0f) continue;
+        const float z = observed.at<float>(y, x);
+        if (!ValidDepth(z)) break;  // no depth says nothing either way
+        ++outline;
+        stepped += std::abs(z - r[u]) > step_m;
+        break;
+      }
+    }
+  }
+  return outline > 0 ? static_cast<double>(stepped) / outline : 0.0;
+}
+
+}  // namespace
+
+FrameCheck CheckAgainstFrame(const Frame& frame, const TemplateBank& bank, const Eigen::Isometry3d& cam_from_object,
+                             double surface_m, double step_m) {
+  FrameCheck check;
+  RasterOptions raster_options;
+  raster_options.want_face_id = false;
+  raster_options.cull_backfaces = bank.online_mesh_closed;
+  RasterImage raster;
+  Rasterize(bank.online_mesh, frame.camera, cam_from_object, raster_options, &raster);
+  const float tolerance = static_cast<float>(surface_m);
+  int on_surface = 0, free_space = 0;
+  for (int v = 0; v < raster.depth.rows; ++v) {
+    const float* rendered = raster.depth.ptr<float>(v);
+    const float* observed = frame.depth.ptr<float>(v);
+    for (int u = 0; u < raster.depth.cols; ++u) {
+      if (!(rendered[u] > 0.0f) || !ValidDepth(observed[u])) continue;
+      ++check.rendered_pixels;
+      if (observed[u] > rendered[u] + tolerance) ++free_space;
+      else if (observed[u] >= rendered[u] - tolerance) ++on_surface;
+    }
+  }
+  if (check.rendered_pixels > 0) {
+    check.on_surface = static_cast<double>(on_surface) / check.rendered_pixels;
+    check.free_space = static_cast<double>(free_space) / check.rendered_pixels;
+  }
+  check.contour_support = ContourSupport(raster.depth, frame.depth, 2, static_cast<float>(step_m));
+  return check;
+}
+
+namespace {
+
+// Regions of one object from the point-pair-feature vote over `region` (DetectOptions::ppf_*):
+// at most `wanted` of them, most votes first, each the pixels on the rendered surface of a
+// voted pose that sees little free space, none mostly inside another.
+std::vector<Proposal> PpfProposals(const Frame& frame, const TemplateBank& bank, const cv::Mat& region, int wanted,
+                                   const SolverOptions& solver_options, const DetectOptions& options, Executor* executor) {
+  std::vector<Proposal> proposals;
+  const PpfModel& model = bank.ppf;
+  if (model.empty() || wanted <= 0) return proposals;
+  PpfSearchOptions search = solver_options.ppf;
+  search.reference_stride = options.ppf_reference_stride;
+  search.max_scene_points = options.ppf_max_scene_points;
+  search.max_poses = std::max(search.max_poses, 4 * wanted);
+  search.min_cluster_ratio = std::min(search.min_cluster_ratio, 0.05);
+  const PpfScene scene = MakePpfScene(frame.camera, frame.depth, region, model.step_m, model.options.normal_cluster_deg, search);
+  const std::vector<PpfPose> poses = VotePpfPoses(model, scene, bank.diameter_m, search, executor, nullptr);
+  const float tolerance = static_cast<float>(options.ppf_surface_fraction * bank.diameter_m);
+  const double focal = std::min(frame.camera.fx, frame.camera.fy);
+  RasterOptions raster_options;
+  raster_options.want_face_id = false;
+  raster_options.cull_backfaces = bank.online_mesh_closed;
+  std::vector<Proposal> candidates(poses.size());
+  std::vector<bool> usable(poses.size(), false);
+  executor->ParallelFor(static_cast<int>(poses.size()), [&](int k) {
+    // A pose mostly outside the image is no candidate of the vote: what little of it is seen
+    // says too little (the depth segments still propose truncated objects).
+    int in_image = 0;
+    for (const Eigen::Vector3f& point : model.points) {
+      const Eigen::Vector3d in_cam = poses[static_cast<size_t>(k)].cam_from_object * point.cast<double>();
+      if (in_cam.z() <= 0.0) continue;
+      const Eigen::Vector2d uv = frame.camera.Project(in_cam);
+      in_image += uv.x() >= 0 && uv.y() >= 0 && uv.x() < frame.camera.width && uv.y() < frame.camera.height;
+    }
+    if (in_image < 0.8 * static_cast<double>(model.points.size())) return;
+    RasterImage raster;
+    Rasterize(bank.online_mesh, frame.camera, poses[static_cast<size_t>(k)].cam_from_object, raster_options, &raster);
+    Proposal& proposal = candidates[static_cast<size_t>(k)];
+    proposal.mask = cv::Mat::zeros(frame.depth.size(), CV_8U);
+    int on_surface = 0, free_space = 0, seen = 0;
+    std::vector<float> depths;
+    for (int v = 0; v < raster.depth.rows; ++v) {
+      const float* rendered = raster.depth.ptr<float>(v);
+      const float* observed = frame.depth.ptr<float>(v);
+      const uint8_t* inside = region.ptr<uint8_t>(v);
+      uint8_t* m = proposal.mask.ptr<uint8_t>(v);
+      for (int u = 0; u < raster.depth.cols; ++u) {
+        if (!(rendered[u] > 0.0f) || !ValidDepth(observed[u])) continue;
+        ++seen;
+        if (observed[u] > rendered[u] + tolerance) {
+          ++free_space;  // the camera sees past where the object would be
+        } else if (observed[u] >= rendered[u] - tolerance && inside[u]) {
+          ++on_surface;
+          m[u] = 255;
+          depths.push_back(observed[u]);
+        }
+      }
+    }
+    const double support = ContourSupport(raster.depth, frame.depth, 2, static_cast<float>(options.ppf_contour_step_m));
+    if (on_surface == 0 || free_space > options.ppf_max_free_space * seen) return;
+    if (support < options.ppf_min_contour_support) return;
+    std::nth_element(depths.begin(), depths.begin() + static_cast<long>(depths.size() / 2), depths.end());
+    proposal.depth_m = depths[depths.size() / 2];
+    const double whole_px = focal * bank.diameter_m / proposal.depth_m;
+    if (on_surface < options.min_area_fraction * whole_px * whole_px * M_PI / 8.0) return;
+    proposal.pixels = on_surface;
+    proposal.box = cv::boundingRect(proposal.mask);
+    proposal.extent_m = bank.diameter_m;
+    proposal.centre_m = poses[static_cast<size_t>(k)].cam_from_object * bank.bounding_box.center();
+    proposal.ppf_votes = poses[static_cast<size_t>(k)].votes;
+    usable[static_cast<size_t>(k)] = true;
+  });
+  for (size_t k = 0; k < candidates.size() && static_cast<int>(proposals.size()) < wanted; ++k) {
+    if (!usable[k]) continue;
+    bool inside_other = false;
+    for (const Proposal& other : proposals) {
+      inside_other = inside_other || 2 * cv::countNonZero(candidates[k].mask & other.mask) > candidates[k].pixels;
+    }
+    if (!inside_other) proposals.push_back(std::move(candidates[k]));
+  }
+  return proposals;
+}
+
 // The answers kept among `solved`: by S_A, best first, each at most max_score, each object's
 // count respected, and each sharing at most max_overlap of its pixels (corrected mask) with
 // the answers kept before it. *suppressed counts the others.
@@ -375,8 +528,10 @@ std::vector<Detection> SelectAnswers(const Frame& frame, const std::vector<Detec
     const int pixels = cv::countNonZero(mask);
     const int overlap = pixels > 0 ? cv::countNonZero(mask & taken) : 0;
     const size_t r = static_cast<size_t>(detection.request);
+    const bool explains_frame = detection.check.free_space <= options.max_free_space &&
+                                detection.check.contour_support >= options.min_contour_support;
     if (detection.result.score > options.max_score || answered[r] >= requests[r].count || pixels == 0 ||
-        overlap > options.max_overlap * pixels) {
+        overlap > options.max_overlap * pixels || !explains_frame) {
       ++*suppressed;
       continue;
     }
@@ -577,6 +732,40 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
         out.trials.insert(out.trials.end(), trials.begin(), trials.end());
       }
     }
+    // The point-pair-feature vote's regions (first pass only), each for its own object, unless
+    // mostly inside a region already chosen for that object.
+    if (pass == 0 && options.ppf_extra > 0 && solver_options.use_ppf) {
+      const ScopedTimer timer(&out.ppf_ms);
+      for (size_t r = 0; r < requests.size(); ++r) {
+        if (wanted[r] <= 0) continue;
+        std::vector<cv::Mat> chosen_masks;
+        for (int c : chosen[r]) {
+          chosen_masks.push_back(FilledRegionMask(segmentation.labels, out.support,
+                                                  out.proposals[static_cast<size_t>(out.trials[static_cast<size_t>(c)].proposal)],
+                                                  options.fill_gap_px));
+        }
+        cv::Mat ppf_region = region.clone();
+        if (!requests[r].within.empty()) ppf_region &= requests[r].within;
+        for (Proposal& proposal : PpfProposals(frame, *requests[r].bank, ppf_region, wanted[r] + options.ppf_extra,
+                                               solve_options, options, executor)) {
+          bool inside = false;
+          for (const cv::Mat& mask : chosen_masks) inside = inside || 2 * cv::countNonZero(proposal.mask & mask) > proposal.pixels;
+          if (inside) continue;
+          proposal.ppf_request = static_cast<int>(r);
+          proposal.pass = pass;
+          CandidateTrial trial;
+          trial.request = static_cast<int>(r);
+          trial.proposal = static_cast<int>(out.proposals.size());
+          trial.pass = pass;
+          trial.size_term = 1.0;
+          trial.rank = 0.0;
+          out.proposals.push_back(std::move(proposal));
+          chosen[r].push_back(static_cast<int>(out.trials.size()));
+          out.trials.push_back(trial);
+          ++out.ppf_regions;
+        }
+      }
+    }
 
     // Solve the chosen candidates: all at once over the executor (each solve fans out its
     // own hypotheses too, so the threads stay busy through a solve's serial stages), or,
@@ -602,6 +791,11 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
                                             out.proposals[static_cast<size_t>(trial.proposal)], options.fill_gap_px);
         detection.result = EstimatePose(frame, {detection.object_id, detection.region}, *requests[job.request].bank,
                                         solve_options, executor);
+        if (detection.result.success) {
+          const TemplateBank& bank = *requests[job.request].bank;
+          detection.check = CheckAgainstFrame(frame, bank, detection.result.cam_from_object,
+                                              options.free_space_fraction * bank.diameter_m, options.ppf_contour_step_m);
+        }
         trial.solved = true;
         trial.success = detection.result.success;
         trial.score = detection.result.score;

@@ -125,6 +125,42 @@ struct DetectOptions {
   /// Non-maximum suppression: an answer whose corrected mask shares more than this fraction
   /// of its pixels with the mask of a better answer (lower S_A) is dropped.
   double max_overlap = 0.3;
+  /// Regions from the point-pair-feature vote over the frame (less its support; ppf.h), for
+  /// objects whose bank has a PPF model (and SolverOptions::use_ppf): the pose clusters with
+  /// the most votes, each rendered into the frame, and the pixels whose depth lies on its
+  /// rendered surface are a candidate region of that object, besides the depth segments'.
+  /// Parts that touch in a bin, or an object leaning on another, form no segment of their
+  /// own; the vote finds them anyway. Per object, its count plus `ppf_extra` such regions
+  /// are solved (0 = off, the default: on synth_dev without masks they cost 1.1 s per image
+  /// and took recall from 39.1% to 37.1%: a pose laid onto a surface that runs on past it
+  /// explains its own region, and S cannot tell; bench/RESULTS.md).
+  int ppf_extra = 0;
+  /// The vote over the frame: every n-th scene point is a reference, at most this many scene points.
+  int ppf_reference_stride = 4;
+  int ppf_max_scene_points = 5000;
+  /// A pose's region: its rendered pixels whose observed depth lies within this fraction of
+  /// the diameter of the rendered surface; a pose whose rendered pixels see past its surface
+  /// (observed depth farther than that: free space the object would fill) for more than
+  /// `ppf_max_free_space` of them is no candidate.
+  double ppf_surface_fraction = 0.1;
+  double ppf_max_free_space = 0.5;
+  /// ... and an object ends where the depth steps: at this fraction of its rendered outline
+  /// at least, the depth just outside it must lie behind it (or in front: an occluder, or
+  /// be missing) by more than `ppf_contour_step_m`. A pose laid onto a larger surface (a
+  /// flat part onto a wall, a plate onto another part) explains the depth under it as well
+  /// as the true one, but the surface runs on past its outline.
+  double ppf_min_contour_support = 0.3;
+  double ppf_contour_step_m = 0.005;
+  /// Every answer is checked against the whole frame at its final pose (FrameCheck, in
+  /// Detection::check): it is no answer when more than `max_free_space` of its rendered
+  /// pixels with depth see past its surface (by more than `free_space_fraction` of the
+  /// diameter), or when less than `min_contour_support` of its outline shows a depth step
+  /// (ppf_contour_step_m). Off by default (1 and 0): as hard limits (0.15, 0.5) they took
+  /// synth_dev's recall without masks from 39.1% to 33.3%, refusing right answers of parts
+  /// whose outline meets a touching part at the same depth (bench/RESULTS.md).
+  double max_free_space = 1.0;
+  double free_space_fraction = 0.05;
+  double min_contour_support = 0.0;
 
   /// Empty when valid, else names the bad field.
   std::string Check() const;
@@ -139,6 +175,12 @@ struct Proposal {
   double depth_m = 0.0;       ///< median depth (pixel-weighted over its segments)
   Eigen::Vector3d centre_m = Eigen::Vector3d::Zero();  ///< centre of its spans' box, camera frame
   int pass = 0;               ///< the pass whose segmentation its labels refer to (DetectionReport::passes)
+  /// A region of the point-pair-feature vote (DetectOptions::ppf_extra): CV_8U 0/255, frame
+  /// size, the pixels on the surface of a voted pose of object `ppf_request`; `segments` is
+  /// then empty. Empty for a region of the depth segments.
+  cv::Mat mask;
+  int ppf_request = -1;
+  double ppf_votes = 0.0;
 };
 
 /// One (object, candidate) pair that was ranked, and solved when it ranked high enough.
@@ -156,6 +198,19 @@ struct CandidateTrial {
   double ms = 0.0;           ///< solve time
 };
 
+/// An answer checked against the whole frame (not only its region), at its pose.
+struct FrameCheck {
+  int rendered_pixels = 0;       ///< rendered pixels (in the image) with observed depth
+  double on_surface = 0.0;       ///< fraction of them whose depth lies on the rendered surface
+  double free_space = 0.0;       ///< ... whose depth lies behind it: the camera sees through the object
+  double contour_support = 0.0;  ///< fraction of the outline where the depth steps
+};
+
+/// Renders `bank`'s online mesh at `cam_from_object` into the frame and reads the depth:
+/// surface tolerance `surface_m`, outline step `step_m`.
+FrameCheck CheckAgainstFrame(const Frame& frame, const TemplateBank& bank, const Eigen::Isometry3d& cam_from_object,
+                             double surface_m, double step_m);
+
 /// One answer.
 struct Detection {
   int request = -1;           ///< index into the requests
@@ -163,6 +218,7 @@ struct Detection {
   int proposal = -1;          ///< the candidate region it was solved on
   cv::Mat region;             ///< CV_8U 0/255, frame size: that region (the mask it was solved with)
   PoseResult result;          ///< EstimatePose's answer on the region (corrected_mask, S_A, ...)
+  FrameCheck check;           ///< the answer against the whole frame
 };
 
 /// What DetectObjects() saw and did.
@@ -187,7 +243,8 @@ struct DetectionReport {
   int solves = 0;                   ///< EstimatePose calls
   int answers = 0;                  ///< detections returned
   int suppressed = 0;               ///< solved answers dropped by S_A, the overlap or the count
-  double support_ms = 0.0, segment_ms = 0.0, propose_ms = 0.0, rank_ms = 0.0, solve_ms = 0.0,
+  int ppf_regions = 0;              ///< regions from the point-pair-feature vote
+  double support_ms = 0.0, segment_ms = 0.0, propose_ms = 0.0, ppf_ms = 0.0, rank_ms = 0.0, solve_ms = 0.0,
          select_ms = 0.0, total_ms = 0.0;
 };
 

@@ -35,6 +35,7 @@ cv::Mat DrawDetectionPicture(const Frame& frame, const std::vector<DetectRequest
                                      : labels;
     cv::Mat mask = cv::Mat::zeros(labels.size(), CV_8U);
     for (int label : proposal.segments) mask |= pass_labels == label;
+    if (!proposal.mask.empty()) mask = proposal.mask;  // a region of the point-pair-feature vote
     DrawMaskOutline(mask, cv::Scalar(255, 255, 255), 1, &picture);
   }
   OverlayStyle style;

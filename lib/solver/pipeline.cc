@@ -34,7 +34,7 @@ std::string SolverOptions::Check() const {
   if (!bad.empty()) return bad;
   std::ostringstream out;
   if (num_hypotheses < 1) out << "SolverOptions.num_hypotheses must be >= 1 (got " << num_hypotheses << ")";
-  else if (ppf_reserved_hypotheses < 0) out << "SolverOptions.ppf_reserved_hypotheses must be >= 0 (got " << ppf_reserved_hypotheses << ")";
+  else if (ppf_hypotheses < 0) out << "SolverOptions.ppf_hypotheses must be >= 0 (got " << ppf_hypotheses << ")";
   else if (region_candidates < 0 || region_candidates > 16) out << "SolverOptions.region_candidates must be in [0, 16] (got " << region_candidates << ")";
   else if (!(region_search_confidence >= 0.0 && region_search_confidence <= 1.0)) out << "SolverOptions.region_search_confidence must be in [0, 1] (got " << region_search_confidence << ")";
   else if (!(neighbour_min_fraction > 0.0 && neighbour_min_fraction <= 1.0)) out << "SolverOptions.neighbour_min_fraction must be in (0, 1] (got " << neighbour_min_fraction << ")";
@@ -473,8 +473,19 @@ std::vector<Hypothesis> SelectObservable(const SolveContext& c, const std::vecto
   // one already kept adds nothing (all distinct already when the PnP poses were merged).
   const double distinct_m = options.distinct_pose_fraction * c.bank.diameter_m;
   std::vector<Hypothesis> kept;
+  // The PnP poses fill the K slots as in the paper; the point-pair-feature poses have slots
+  // of their own beyond K (options.ppf_hypotheses, the best of them by E_obs), so that a
+  // depth-voted pose never takes a textured object's PnP pose's place.
+  int ppf_kept = 0;
   for (int i : order) {
-    if (kept.size() >= static_cast<size_t>(options.num_hypotheses)) break;
+    if (hypotheses[static_cast<size_t>(i)].set_rank < 0) {
+      if (ppf_kept >= options.ppf_hypotheses) continue;
+      ++ppf_kept;
+      kept.push_back(hypotheses[static_cast<size_t>(i)]);
+      if (kept.size() == 1) c.stages->best_e_obs = observable[static_cast<size_t>(i)].e_obs;
+      continue;
+    }
+    if (static_cast<int>(kept.size()) - ppf_kept >= options.num_hypotheses) continue;
     if (!kept.empty() && c.clock->OutOfTime(kObservableBudgetShare)) break;
     const Hypothesis& h = hypotheses[static_cast<size_t>(i)];
     bool distinct = true;
@@ -484,28 +495,6 @@ std::vector<Hypothesis> SelectObservable(const SolveContext& c, const std::vecto
     if (!distinct) continue;
     if (kept.empty()) c.stages->best_e_obs = observable[static_cast<size_t>(i)].e_obs;
     kept.push_back(h);
-  }
-  // Reserved slots: the silhouette of a pose before ICP says little about a textureless part
-  // whose outline many wrong poses share, while the depth's vote already ranked the PPF poses.
-  // The best-voted PPF poses E_obs left out replace the last PnP poses kept.
-  int ppf_kept = 0;
-  for (const Hypothesis& h : kept) ppf_kept += h.set_rank < 0;
-  size_t replace = kept.size();
-  for (size_t i = 0; i < hypotheses.size() && ppf_kept < options.ppf_reserved_hypotheses; ++i) {
-    const Hypothesis& h = hypotheses[i];
-    if (h.set_rank >= 0) continue;
-    bool already = false;
-    for (const Hypothesis& k : kept) already = already || (k.set_rank < 0 && k.cam_from_object.isApprox(h.cam_from_object));
-    if (already) continue;
-    while (replace > 0 && kept[replace - 1].set_rank < 0) --replace;
-    if (kept.size() < static_cast<size_t>(options.num_hypotheses)) {
-      kept.push_back(h);
-    } else if (replace > 1) {
-      kept[--replace] = h;
-    } else {
-      break;
-    }
-    ++ppf_kept;
   }
   return kept;
 }

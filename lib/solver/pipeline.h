@@ -92,9 +92,11 @@ struct SolverOptions {
   /// a PPF model (TemplateBank::ppf); the two sources' poses meet in observable selection.
   bool use_ppf = true;
   PpfSearchOptions ppf;
-  /// Of the K slots of observable selection, up to this many go to the PPF poses with the
-  /// most votes when E_obs did not keep them (they replace the PnP poses ranked last).
-  int ppf_reserved_hypotheses = 6;
+  /// Slots beyond K for the point-pair-feature poses: after observable selection kept the K
+  /// best PnP poses by E_obs, the best this many PPF poses by E_obs join them, so that ICP
+  /// and MHPO refine K + ppf_hypotheses poses. (Competing for the K slots instead, they
+  /// displaced a textured object's right PnP pose at small K.)
+  int ppf_hypotheses = 6;
   int num_hypotheses = 18;      ///< N_H = K: hypotheses kept after observable selection
   ScoreOptions score;           ///< ω_C = 0.70, λ_S = 10
   GridOptions selection_grid = [] {

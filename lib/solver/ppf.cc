@@ -315,10 +315,12 @@ std::vector<PpfPose> VotePpfPoses(const PpfModel& model, const PpfScene& scene, 
     const Eigen::Isometry3f scene_reference = PpfReferenceFrame(scene.points[static_cast<size_t>(peak.scene_reference)],
                                                                 scene.normals[static_cast<size_t>(peak.scene_reference)]);
     const double alpha = (peak.alpha_bin + 0.5) * 2.0 * kPi / alpha_bins;
-    const Eigen::Isometry3d cam_from_object = scene_reference.inverse().cast<double>() *
-                                              Eigen::Isometry3d(Eigen::AngleAxisd(alpha, Eigen::Vector3d::UnitX())) *
-                                              model_reference.cast<double>();
-    const Eigen::Quaterniond rotation(cam_from_object.linear());
+    Eigen::Isometry3d cam_from_object = scene_reference.inverse().cast<double>() *
+                                        Eigen::Isometry3d(Eigen::AngleAxisd(alpha, Eigen::Vector3d::UnitX())) *
+                                        model_reference.cast<double>();
+    // The reference frames are single precision: make the rotation orthonormal in double.
+    const Eigen::Quaterniond rotation = Eigen::Quaterniond(cam_from_object.linear()).normalized();
+    cam_from_object.linear() = rotation.toRotationMatrix();
     const Eigen::Vector3d centre = cam_from_object * centre_in_object;
     bool joined = false;
     for (Cluster& cluster : clusters) {

@@ -181,6 +181,12 @@ PpfModel BuildPpfModel(const Mesh& mesh, double diameter_m, const PpfModelOption
 
 void DerivePpfTable(PpfModel* model) {
   const size_t n = model->points.size();
+  model->offsets.clear();
+  model->entries.clear();
+  model->reference_from_object.clear();
+  model->max_distance_m = 0.0;
+  model->distance_bins = model->angle_bins = model->alpha_bins = 0;
+  if (n == 0 || !(model->step_m > 0.0)) return;  // no model: nothing to look up
   model->angle_bins = std::max(1, static_cast<int>(std::ceil(180.0 / model->options.angle_step_deg - 1e-9)));
   model->alpha_bins = 2 * model->angle_bins;
   model->reference_from_object.resize(n);

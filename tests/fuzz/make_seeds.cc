@@ -421,7 +421,11 @@ TemplateBank MakeSeedBank(int num_templates, bool with_normals, bool with_symmet
       bank.appearance.points.push_back(vertex);
       bank.appearance.normals.push_back(vertex.normalized());
       bank.appearance.colors.emplace_back(0.125f * static_cast<float>(i), 0.5f, 1.0f);
+      bank.ppf.points.push_back(vertex);  // the point-pair-feature model (format 3)
+      bank.ppf.normals.push_back(vertex.normalized());
     }
+    bank.ppf.options = bank.options.ppf;
+    bank.ppf.step_m = 0.05 * bank.diameter_m;
   }
   for (int j = 0; j < num_templates; ++j) {
     Template t;

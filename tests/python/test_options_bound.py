@@ -30,6 +30,8 @@ STRUCTS = {
     "ViewSamplingOptions": "lib/templates/views.h",
     "CropOptions": "lib/templates/crop.h",
     "SymmetryOptions": "lib/mesh/symmetry.h",
+    "PpfSearchOptions": "lib/solver/ppf.h",
+    "PpfModelOptions": "lib/templates/ppf_model.h",
 }
 # Fields a Python caller cannot use, and why.
 NOT_BOUND = {

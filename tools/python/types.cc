@@ -291,6 +291,22 @@ void BindOptions(py::module_& module) {
         G6D_FIELD(edge_margin_px) G6D_FIELD(min_chroma_std) G6D_FIELD(min_visible_points).Done();
   }
   {
+    using T = PpfSearchOptions;
+    OptionsClass<T>(module, "PpfSearchOptions",
+                    "Point-pair-feature voting on the depth, the texture-free hypothesis source (solver/ppf.h).")
+        G6D_FIELD(reference_stride) G6D_FIELD(neighbour_spread) G6D_FIELD(max_bucket_fraction)
+        G6D_FIELD(peaks_per_reference) G6D_FIELD(peak_ratio) G6D_FIELD(cluster_distance_fraction)
+        G6D_FIELD(cluster_angle_deg) G6D_FIELD(max_poses) G6D_FIELD(min_cluster_ratio)
+        G6D_FIELD(normal_radius_steps) G6D_FIELD(max_scene_points).Done();
+  }
+  {
+    using T = PpfModelOptions;
+    OptionsClass<T>(module, "PpfModelOptions",
+                    "The point-pair-feature model built into a cache (templates/ppf_model.h).")
+        G6D_FIELD(step_fraction) G6D_FIELD(angle_step_deg) G6D_FIELD(normal_cluster_deg)
+        G6D_FIELD(surface_samples) G6D_FIELD(max_points) G6D_FIELD(seed).Done();
+  }
+  {
     using T = SolverOptions;
     // stop_requested (a pointer to the caller's atomic flag) is not bound: a Python caller
     // bounds a solve with budget_ms.
@@ -300,7 +316,8 @@ void BindOptions(py::module_& module) {
         G6D_FIELD(query_orb) G6D_FIELD(mask_trust) G6D_FIELD(region) G6D_FIELD(segments)
         G6D_FIELD(split_merged_at_creases) G6D_FIELD(max_search_regions) G6D_FIELD(region_candidates)
         G6D_FIELD(region_search_confidence) G6D_FIELD(explain_neighbours) G6D_FIELD(neighbour_min_fraction)
-        G6D_FIELD(mask_refine_rounds) G6D_FIELD(match) G6D_FIELD(pnp) G6D_FIELD(num_hypotheses) G6D_FIELD(score)
+        G6D_FIELD(mask_refine_rounds) G6D_FIELD(match) G6D_FIELD(pnp) G6D_FIELD(use_ppf) G6D_FIELD(ppf)
+        G6D_FIELD(ppf_hypotheses) G6D_FIELD(num_hypotheses) G6D_FIELD(score)
         G6D_FIELD(selection_grid) G6D_FIELD(refine_grid) G6D_FIELD(icp) G6D_FIELD(run_icp)
         G6D_FIELD(max_observed_points) G6D_FIELD(max_source_points) G6D_FIELD(icp_coarse_points)
         G6D_FIELD(icp_probe_iterations) G6D_FIELD(icp_finish_hypotheses) G6D_FIELD(icp_source_in_mask)
@@ -334,7 +351,10 @@ void BindOptions(py::module_& module) {
         G6D_FIELD(extent_margin_px) G6D_FIELD(min_extent_fraction) G6D_FIELD(min_area_fraction)
         G6D_FIELD(extra_candidates) G6D_FIELD(colour_weight) G6D_FIELD(accept_confidence)
         G6D_FIELD(accept_region_iou) G6D_FIELD(fill_gap_px) G6D_FIELD(explain_away_passes) G6D_FIELD(max_score)
-        G6D_FIELD(max_overlap).Done();
+        G6D_FIELD(max_overlap) G6D_FIELD(ppf_extra) G6D_FIELD(ppf_reference_stride) G6D_FIELD(ppf_max_scene_points)
+        G6D_FIELD(ppf_surface_fraction) G6D_FIELD(ppf_max_free_space) G6D_FIELD(ppf_min_contour_support)
+        G6D_FIELD(ppf_contour_step_m) G6D_FIELD(max_free_space) G6D_FIELD(free_space_fraction)
+        G6D_FIELD(min_contour_support).Done();
   }
   {
     using T = ViewSamplingOptions;
@@ -360,7 +380,8 @@ void BindOptions(py::module_& module) {
                     "The defaults are g6d-build-templates' (324 templates).")
         G6D_FIELD(views) G6D_FIELD(crop) G6D_FIELD(orb) G6D_FIELD(render_size_px) G6D_FIELD(render_focal_px)
         G6D_FIELD(online_mesh_faces) G6D_FIELD(max_view_angle_deg) G6D_FIELD(thumbnail_size_px)
-        G6D_FIELD(find_symmetries) G6D_FIELD(symmetry) G6D_FIELD(sample_appearance) G6D_FIELD(appearance).Done();
+        G6D_FIELD(find_symmetries) G6D_FIELD(symmetry) G6D_FIELD(sample_appearance) G6D_FIELD(appearance)
+        G6D_FIELD(build_ppf) G6D_FIELD(ppf).Done();
   }
 }
 

@@ -33,7 +33,7 @@ import os as _os
 from . import _core
 from ._core import (AppearanceOptions, CropOptions, DetectOptions, Error, GridOptions, IcpOptions,
                     IdentifyOptions, MaskTrust, MatchOptions, MhpoOptions, OrbOptions, PnpMinimalSolver,
-                    PnpOptions, RegionOptions, ScoreOptions, SegmentOptions, SolverOptions,
+                    PnpOptions, PpfModelOptions, PpfSearchOptions, RegionOptions, ScoreOptions, SegmentOptions, SolverOptions,
                     SymmetryOptions, TemplateBank, TemplateBuildOptions, TrackSolveOptions,
                     ViewSamplingOptions)
 
@@ -54,7 +54,8 @@ __all__ = [
 ]
 
 _OPTION_CLASSES = (AppearanceOptions, CropOptions, DetectOptions, GridOptions, IcpOptions,
-                   IdentifyOptions, MatchOptions, MhpoOptions, OrbOptions, PnpOptions, RegionOptions,
+                   IdentifyOptions, MatchOptions, MhpoOptions, OrbOptions, PnpOptions, PpfModelOptions,
+                   PpfSearchOptions, RegionOptions,
                    ScoreOptions, SegmentOptions, SolverOptions, SymmetryOptions, TemplateBuildOptions,
                    TrackSolveOptions, ViewSamplingOptions)
 

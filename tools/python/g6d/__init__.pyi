@@ -146,6 +146,29 @@ class AppearanceOptions(_Options):
     min_chroma_std: float
     min_visible_points: int
 
+class PpfSearchOptions(_Options):
+    """Point-pair-feature voting on the depth (lib/solver/ppf.h)."""
+    reference_stride: int
+    neighbour_spread: float
+    max_bucket_fraction: float
+    peaks_per_reference: int
+    peak_ratio: float
+    cluster_distance_fraction: float
+    cluster_angle_deg: float
+    max_poses: int
+    min_cluster_ratio: float
+    normal_radius_steps: float
+    max_scene_points: int
+
+class PpfModelOptions(_Options):
+    """The point-pair-feature model of a cache (lib/templates/ppf_model.h)."""
+    step_fraction: float
+    angle_step_deg: float
+    normal_cluster_deg: float
+    surface_samples: int
+    max_points: int
+    seed: int
+
 class SolverOptions(_Options):
     """All options of estimate_pose; defaults are the service's (lib/solver/pipeline.h)."""
     query_orb: OrbOptions
@@ -161,6 +184,9 @@ class SolverOptions(_Options):
     mask_refine_rounds: int
     match: MatchOptions
     pnp: PnpOptions
+    use_ppf: bool
+    ppf: PpfSearchOptions
+    ppf_hypotheses: int
     num_hypotheses: int
     score: ScoreOptions
     selection_grid: GridOptions
@@ -232,6 +258,16 @@ class DetectOptions(_Options):
     explain_away_passes: int
     max_score: float
     max_overlap: float
+    ppf_extra: int
+    ppf_reference_stride: int
+    ppf_max_scene_points: int
+    ppf_surface_fraction: float
+    ppf_max_free_space: float
+    ppf_min_contour_support: float
+    ppf_contour_step_m: float
+    max_free_space: float
+    free_space_fraction: float
+    min_contour_support: float
 
 class ViewSamplingOptions(_Options):
     num_directions: int
@@ -266,6 +302,8 @@ class TemplateBuildOptions(_Options):
     symmetry: SymmetryOptions
     sample_appearance: bool
     appearance: AppearanceOptions
+    build_ppf: bool
+    ppf: PpfModelOptions
 
 class Frame:
     """One RGB-D frame: rgb uint8 (H, W, 3); depth uint16 with depth_scale (metres per unit)
