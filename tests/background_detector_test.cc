@@ -51,10 +51,11 @@ class BackgroundDetectorTest : public ::testing::Test {
 Mesh* BackgroundDetectorTest::mesh_ = nullptr;
 std::shared_ptr<const TemplateBank> BackgroundDetectorTest::bank_;
 
-// Waits (up to a minute: a wait, not a timing assertion) for `count` finished jobs.
+// Waits (up to five minutes: a wait, not a timing assertion; a full solve under
+// ThreadSanitizer takes tens of seconds) for `count` finished jobs.
 std::vector<BackgroundDetector::Done> WaitFor(BackgroundDetector* detector, size_t count) {
   std::vector<BackgroundDetector::Done> done;
-  for (int i = 0; i < 6000 && done.size() < count; ++i) {
+  for (int i = 0; i < 30000 && done.size() < count; ++i) {
     for (BackgroundDetector::Done& d : detector->TakeFinished()) done.push_back(std::move(d));
     if (done.size() < count) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }

@@ -80,6 +80,8 @@ std::string PpfSearchOptions::Check() const {
   std::ostringstream out;
   if (reference_stride < 1) {
     out << "ppf.reference_stride must be >= 1 (got " << reference_stride << ")";
+  } else if (max_reference_points < 1) {
+    out << "ppf.max_reference_points must be >= 1 (got " << max_reference_points << ")";
   } else if (!(neighbour_spread >= 0.0 && neighbour_spread < 0.5)) {
     out << "ppf.neighbour_spread must be in [0, 0.5) (got " << neighbour_spread << ")";
   } else if (!(max_bucket_fraction > 0.0 && max_bucket_fraction <= 1.0)) {
@@ -214,7 +216,9 @@ std::vector<PpfPose> VotePpfPoses(const PpfModel& model, const PpfScene& scene, 
   const PointGrid grid(scene.points, std::max(reach, 1e-3f));
 
   std::vector<int> references;
-  for (int i = 0; i < scene_count; i += options.reference_stride) references.push_back(i);
+  const int stride = std::max(options.reference_stride, (scene_count + options.max_reference_points - 1) /
+                                                            std::max(1, options.max_reference_points));
+  for (int i = 0; i < scene_count; i += stride) references.push_back(i);
   r.reference_points = static_cast<int>(references.size());
   constexpr int kBlock = 8;
   const int blocks = (static_cast<int>(references.size()) + kBlock - 1) / kBlock;

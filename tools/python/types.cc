@@ -294,7 +294,7 @@ void BindOptions(py::module_& module) {
     using T = PpfSearchOptions;
     OptionsClass<T>(module, "PpfSearchOptions",
                     "Point-pair-feature voting on the depth, the texture-free hypothesis source (solver/ppf.h).")
-        G6D_FIELD(reference_stride) G6D_FIELD(neighbour_spread) G6D_FIELD(max_bucket_fraction)
+        G6D_FIELD(reference_stride) G6D_FIELD(max_reference_points) G6D_FIELD(neighbour_spread) G6D_FIELD(max_bucket_fraction)
         G6D_FIELD(peaks_per_reference) G6D_FIELD(peak_ratio) G6D_FIELD(cluster_distance_fraction)
         G6D_FIELD(cluster_angle_deg) G6D_FIELD(max_poses) G6D_FIELD(min_cluster_ratio)
         G6D_FIELD(normal_radius_steps) G6D_FIELD(max_scene_points).Done();

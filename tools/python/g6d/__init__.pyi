@@ -149,6 +149,7 @@ class AppearanceOptions(_Options):
 class PpfSearchOptions(_Options):
     """Point-pair-feature voting on the depth (lib/solver/ppf.h)."""
     reference_stride: int
+    max_reference_points: int
     neighbour_spread: float
     max_bucket_fraction: float
     peaks_per_reference: int
