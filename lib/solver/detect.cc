@@ -5,7 +5,6 @@
 #include <cmath>
 #include <map>
 #include <numeric>
-#include <random>
 #include <set>
 #include <sstream>
 
@@ -14,209 +13,15 @@
 #include "core/error.h"
 #include "core/timer.h"
 #include "render/raster.h"
-#include "solver/plane.h"
+#include "solver/mask_solve.h"
 #include "solver/ppf.h"
+#include "solver/proposals.h"
 
 namespace g6d {
-
-std::string DetectOptions::Check() const {
-  std::ostringstream out;
-  const std::string segment_problem = segments.Check();
-  if (!segment_problem.empty()) out << "DetectOptions." << segment_problem;
-  else if (max_planes < 0) out << "DetectOptions.max_planes must be >= 0 (got " << max_planes << ")";
-  else if (plane_iterations < 1) out << "DetectOptions.plane_iterations must be >= 1 (got " << plane_iterations << ")";
-  else if (plane_samples < 3) out << "DetectOptions.plane_samples must be >= 3 (got " << plane_samples << ")";
-  else if (!(plane_flatness_m >= 0.0 && plane_flatness_m < 0.1)) out << "DetectOptions.plane_flatness_m must be in [0, 0.1) m (got " << plane_flatness_m << ")";
-  else if (!(min_plane_fraction > 0.0 && min_plane_fraction <= 1.0)) out << "DetectOptions.min_plane_fraction must be in (0, 1] (got " << min_plane_fraction << ")";
-  else if (!(support_extent_factor >= 1.0)) out << "DetectOptions.support_extent_factor must be >= 1 (got " << support_extent_factor << ")";
-  else if (neighbour_gap_px < 1) out << "DetectOptions.neighbour_gap_px must be >= 1 (got " << neighbour_gap_px << ")";
-  else if (max_union_segments < 1) out << "DetectOptions.max_union_segments must be >= 1 (got " << max_union_segments << ")";
-  else if (max_regions < 1) out << "DetectOptions.max_regions must be >= 1 (got " << max_regions << ")";
-  else if (!(extent_margin_px >= 0.0)) out << "DetectOptions.extent_margin_px must be >= 0 (got " << extent_margin_px << ")";
-  else if (!(min_extent_fraction >= 0.0 && min_extent_fraction < 1.0)) out << "DetectOptions.min_extent_fraction must be in [0, 1) (got " << min_extent_fraction << ")";
-  else if (!(min_area_fraction >= 0.0 && min_area_fraction < 1.0)) out << "DetectOptions.min_area_fraction must be in [0, 1) (got " << min_area_fraction << ")";
-  else if (extra_candidates < 0) out << "DetectOptions.extra_candidates must be >= 0 (got " << extra_candidates << ")";
-  else if (!(colour_weight >= 0.0 && colour_weight <= 1.0)) out << "DetectOptions.colour_weight must be in [0, 1] (got " << colour_weight << ")";
-  else if (!(accept_confidence >= 0.0 && accept_confidence <= 1.0)) out << "DetectOptions.accept_confidence must be in [0, 1] (got " << accept_confidence << ")";
-  else if (!(accept_region_iou >= 0.0 && accept_region_iou <= 1.0)) out << "DetectOptions.accept_region_iou must be in [0, 1] (got " << accept_region_iou << ")";
-  else if (fill_gap_px < 0) out << "DetectOptions.fill_gap_px must be >= 0 (got " << fill_gap_px << ")";
-  else if (explain_away_passes < 0) out << "DetectOptions.explain_away_passes must be >= 0 (got " << explain_away_passes << ")";
-  else if (!(max_score > 0.0)) out << "DetectOptions.max_score must be > 0 (got " << max_score << ")";
-  else if (!(max_overlap >= 0.0 && max_overlap <= 1.0)) out << "DetectOptions.max_overlap must be in [0, 1] (got " << max_overlap << ")";
-  else if (ppf_extra < 0) out << "DetectOptions.ppf_extra must be >= 0 (got " << ppf_extra << ")";
-  else if (ppf_reference_stride < 1) out << "DetectOptions.ppf_reference_stride must be >= 1 (got " << ppf_reference_stride << ")";
-  else if (ppf_max_scene_points < 10) out << "DetectOptions.ppf_max_scene_points must be >= 10 (got " << ppf_max_scene_points << ")";
-  else if (!(ppf_surface_fraction > 0.0 && ppf_surface_fraction < 1.0)) out << "DetectOptions.ppf_surface_fraction must be in (0, 1) (got " << ppf_surface_fraction << ")";
-  else if (!(ppf_min_contour_support >= 0.0 && ppf_min_contour_support <= 1.0)) out << "DetectOptions.ppf_min_contour_support must be in [0, 1] (got " << ppf_min_contour_support << ")";
-  else if (!(max_free_space >= 0.0 && max_free_space <= 1.0)) out << "DetectOptions.max_free_space must be in [0, 1] (got " << max_free_space << ")";
-  else if (!(free_space_fraction > 0.0)) out << "DetectOptions.free_space_fraction must be > 0 (got " << free_space_fraction << ")";
-  else if (!(min_contour_support >= 0.0 && min_contour_support <= 1.0)) out << "DetectOptions.min_contour_support must be in [0, 1] (got " << min_contour_support << ")";
-  else if (!(ppf_contour_step_m >= 0.0)) out << "DetectOptions.ppf_contour_step_m must be >= 0 (got " << ppf_contour_step_m << ")";
-  else if (!(ppf_max_free_space >= 0.0 && ppf_max_free_space <= 1.0)) out << "DetectOptions.ppf_max_free_space must be in [0, 1] (got " << ppf_max_free_space << ")";
-  return out.str();
-}
 
 namespace {
 
 bool ValidDepth(float z) { return z > 0.0f && std::isfinite(z); }
-
-using internal::FitPlane;
-using internal::Plane;
-
-// How far a depth point may lie from a plane and still be on it.
-class PlaneTolerance {
- public:
-  explicit PlaneTolerance(const DetectOptions& options)
-      : noise_(options.segments.noise_sigmas * options.segments.sensor_noise_at_1m),
-        flatness_(options.plane_flatness_m) {}
-  double operator()(double z) const { return noise_ * z * z + flatness_; }
-
- private:
-  double noise_, flatness_;
-};
-
-// The extent of a set of points (largest span over SpanDirections(), no trimming).
-double PointsExtent(const std::vector<Eigen::Vector3d>& points) {
-  Spans spans;
-  spans.low.fill(std::numeric_limits<double>::infinity());
-  spans.high.fill(-std::numeric_limits<double>::infinity());
-  for (const Eigen::Vector3d& p : points) {
-    for (int d = 0; d < kSpanDirections; ++d) {
-      const double x = SpanDirections()[static_cast<size_t>(d)].dot(p);
-      spans.low[static_cast<size_t>(d)] = std::min(spans.low[static_cast<size_t>(d)], x);
-      spans.high[static_cast<size_t>(d)] = std::max(spans.high[static_cast<size_t>(d)], x);
-    }
-  }
-  return points.empty() ? 0.0 : spans.Extent();
-}
-
-// Support planes (DetectOptions): RANSAC on a grid sample of the depth, one plane after the
-// other; a plane's large connected inlier parts are the support. Returns the number of
-// planes removed and fills *support (CV_8U 0/255).
-int FindSupport(const Frame& frame, const DetectOptions& options, double largest_diameter_m, cv::Mat* support) {
-  const cv::Mat& depth = frame.depth;
-  *support = cv::Mat::zeros(depth.size(), CV_8U);
-  int valid = 0;
-  for (int v = 0; v < depth.rows; ++v) {
-    const float* d = depth.ptr<float>(v);
-    for (int u = 0; u < depth.cols; ++u) valid += ValidDepth(d[u]);
-  }
-  if (valid < 3) return 0;
-  const int step = std::max(1, static_cast<int>(std::sqrt(static_cast<double>(valid) / options.plane_samples)));
-  std::vector<Eigen::Vector3d> samples;
-  std::vector<cv::Point> sample_pixels;
-  for (int v = step / 2; v < depth.rows; v += step) {
-    for (int u = step / 2; u < depth.cols; u += step) {
-      const float z = depth.at<float>(v, u);
-      if (!ValidDepth(z)) continue;
-      samples.push_back(frame.camera.Backproject(PixelCentre(u, v), z));
-      sample_pixels.push_back(cv::Point(u, v));
-    }
-  }
-  const PlaneTolerance tolerance(options);
-  const size_t total_samples = samples.size();
-  std::mt19937_64 random(1);
-  int planes = 0;
-  for (int round = 0; round < options.max_planes && samples.size() >= 3; ++round) {
-    auto count_inliers = [&](const Plane& plane) {
-      int count = 0;
-      for (const Eigen::Vector3d& p : samples) count += std::abs(plane.Distance(p)) <= tolerance(p.z());
-      return count;
-    };
-    int best_count = -1;
-    const Plane best = internal::RansacPlane(
-        samples, options.plane_iterations, [&](const Eigen::Vector3d& p) { return tolerance(p.z()); }, &random,
-        &best_count);
-    if (best_count < std::max(3.0, options.min_plane_fraction * static_cast<double>(total_samples))) break;
-    std::vector<Eigen::Vector3d> inlier_points;
-    for (const Eigen::Vector3d& p : samples) {
-      if (std::abs(best.Distance(p)) <= tolerance(p.z())) inlier_points.push_back(p);
-    }
-    const Plane refit = FitPlane(inlier_points);
-    const Plane plane = count_inliers(refit) >= best_count ? refit : best;
-    // Full-resolution inliers, split into connected parts; the parts larger than any object
-    // are support.
-    cv::Mat on_plane = cv::Mat::zeros(depth.size(), CV_8U);
-    for (int v = 0; v < depth.rows; ++v) {
-      const float* d = depth.ptr<float>(v);
-      uint8_t* o = on_plane.ptr<uint8_t>(v);
-      const uint8_t* s = support->ptr<uint8_t>(v);
-      for (int u = 0; u < depth.cols; ++u) {
-        if (s[u] || !ValidDepth(d[u])) continue;
-        const Eigen::Vector3d p = frame.camera.Backproject(PixelCentre(u, v), d[u]);
-        o[u] = std::abs(plane.Distance(p)) <= tolerance(p.z()) ? 255 : 0;
-      }
-    }
-    cv::Mat parts;
-    const int part_count = cv::connectedComponents(on_plane, parts, 8, CV_32S);
-    std::vector<std::vector<Eigen::Vector3d>> part_points(static_cast<size_t>(part_count));
-    for (int v = 0; v < depth.rows; v += 2) {
-      const int* l = parts.ptr<int>(v);
-      for (int u = 0; u < depth.cols; u += 2) {
-        if (l[u] > 0) part_points[static_cast<size_t>(l[u])].push_back(frame.camera.Backproject(PixelCentre(u, v), depth.at<float>(v, u)));
-      }
-    }
-    std::vector<uint8_t> is_support(static_cast<size_t>(part_count), 0);
-    bool any = false;
-    for (int k = 1; k < part_count; ++k) {
-      is_support[static_cast<size_t>(k)] =
-          PointsExtent(part_points[static_cast<size_t>(k)]) > options.support_extent_factor * largest_diameter_m;
-      any = any || is_support[static_cast<size_t>(k)];
-    }
-    if (!any) break;  // the best plane is an object's face, or small: no support left
-    ++planes;
-    for (int v = 0; v < depth.rows; ++v) {
-      const int* l = parts.ptr<int>(v);
-      uint8_t* s = support->ptr<uint8_t>(v);
-      for (int u = 0; u < depth.cols; ++u) {
-        if (l[u] > 0 && is_support[static_cast<size_t>(l[u])]) s[u] = 255;
-      }
-    }
-    std::vector<Eigen::Vector3d> left;
-    std::vector<cv::Point> left_pixels;
-    for (size_t i = 0; i < samples.size(); ++i) {
-      if (support->at<uint8_t>(sample_pixels[i])) continue;
-      left.push_back(samples[i]);
-      left_pixels.push_back(sample_pixels[i]);
-    }
-    samples.swap(left);
-    sample_pixels.swap(left_pixels);
-  }
-  return planes;
-}
-
-// Pairs of segments (1-based labels, a < b) with pixels within `gap_px` of each other.
-std::set<std::pair<int, int>> NeighbourSegments(const cv::Mat& labels, int gap_px) {
-  const int cols = (labels.cols + gap_px - 1) / gap_px, rows = (labels.rows + gap_px - 1) / gap_px;
-  std::vector<std::vector<int>> cells(static_cast<size_t>(cols * rows));
-  for (int v = 0; v < labels.rows; ++v) {
-    const int* l = labels.ptr<int>(v);
-    for (int u = 0; u < labels.cols; ++u) {
-      if (l[u] <= 0) continue;
-      std::vector<int>& cell = cells[static_cast<size_t>((v / gap_px) * cols + u / gap_px)];
-      if (std::find(cell.begin(), cell.end(), l[u]) == cell.end()) cell.push_back(l[u]);
-    }
-  }
-  std::set<std::pair<int, int>> pairs;
-  for (int cy = 0; cy < rows; ++cy) {
-    for (int cx = 0; cx < cols; ++cx) {
-      const std::vector<int>& here = cells[static_cast<size_t>(cy * cols + cx)];
-      for (int dy = 0; dy <= 1; ++dy) {
-        for (int dx = -1; dx <= 1; ++dx) {
-          if (dy == 0 && dx < 0) continue;
-          const int nx = cx + dx, ny = cy + dy;
-          if (nx < 0 || nx >= cols || ny >= rows) continue;
-          for (int a : here) {
-            for (int b : cells[static_cast<size_t>(ny * cols + nx)]) {
-              if (a != b) pairs.insert({std::min(a, b), std::max(a, b)});
-            }
-          }
-        }
-      }
-    }
-  }
-  return pairs;
-}
 
 // Chromaticity (r, g) = (R, G) / (R + G + B) histograms, kBins x kBins over [0, 1]; colours
 // darker than kMinSum (sum of channels in [0, 3]) carry no reliable chromaticity.
@@ -242,130 +47,6 @@ double Bhattacharyya(const ChromaHistogram& a, const ChromaHistogram& b) {
   double sum = 0.0;
   for (size_t k = 0; k < a.size(); ++k) sum += std::sqrt(a[k] * b[k]);
   return sum;
-}
-
-// The full-frame 0/255 mask of a region's segments.
-cv::Mat RegionMask(const cv::Mat& labels, const Proposal& proposal) {
-  cv::Mat mask = cv::Mat::zeros(labels.size(), CV_8U);
-  for (int v = proposal.box.y; v < proposal.box.y + proposal.box.height; ++v) {
-    const int* l = labels.ptr<int>(v);
-    uint8_t* m = mask.ptr<uint8_t>(v);
-    for (int u = proposal.box.x; u < proposal.box.x + proposal.box.width; ++u) {
-      if (l[u] > 0 && std::binary_search(proposal.segments.begin(), proposal.segments.end(), l[u])) m[u] = 255;
-    }
-  }
-  return mask;
-}
-
-// The region as a segmenter would draw it: its segments plus the unclaimed pixels (no
-// depth, or a depth fragment; not support, no other segment) within `gap_px` of them: the
-// dark rims at the object's edges and the holes in its depth.
-cv::Mat FilledRegionMask(const cv::Mat& labels, const cv::Mat& support, const Proposal& proposal, int gap_px) {
-  if (!proposal.mask.empty()) return proposal.mask;  // a voted pose's surface: whole already
-  cv::Mat mask = RegionMask(labels, proposal);
-  if (gap_px <= 0) return mask;
-  cv::Mat grown;
-  cv::dilate(mask, grown, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * gap_px + 1, 2 * gap_px + 1)));
-  const cv::Rect box = (proposal.box + cv::Point(-gap_px, -gap_px) + cv::Size(2 * gap_px, 2 * gap_px)) &
-                       cv::Rect(0, 0, labels.cols, labels.rows);
-  for (int v = box.y; v < box.y + box.height; ++v) {
-    const int* l = labels.ptr<int>(v);
-    const uint8_t* s = support.ptr<uint8_t>(v);
-    const uint8_t* g = grown.ptr<uint8_t>(v);
-    uint8_t* m = mask.ptr<uint8_t>(v);
-    for (int u = box.x; u < box.x + box.width; ++u) {
-      if (g[u] && l[u] == 0 && !s[u]) m[u] = 255;
-    }
-  }
-  return mask;
-}
-
-// The region's pixels (with depth: its segments') where `within` is set.
-int PixelsInside(const cv::Mat& labels, const Proposal& proposal, const cv::Mat& within) {
-  int inside = 0;
-  for (int v = proposal.box.y; v < proposal.box.y + proposal.box.height; ++v) {
-    const int* l = labels.ptr<int>(v);
-    const uint8_t* w = within.ptr<uint8_t>(v);
-    for (int u = proposal.box.x; u < proposal.box.x + proposal.box.width; ++u) {
-      inside += w[u] && l[u] > 0 && std::binary_search(proposal.segments.begin(), proposal.segments.end(), l[u]);
-    }
-  }
-  return inside;
-}
-
-// Pixels the two regions share (they share whole segments).
-int SharedPixels(const Proposal& a, const Proposal& b, const std::vector<DepthSegment>& segments) {
-  int shared = 0;
-  for (int s : a.segments) {
-    if (std::binary_search(b.segments.begin(), b.segments.end(), s)) shared += segments[static_cast<size_t>(s - 1)].pixels;
-  }
-  return shared;
-}
-
-// Regions: every segment that fits the largest object and the unions of up to
-// max_union_segments neighbouring ones that still fit it.
-std::vector<Proposal> FormRegions(const DepthSegmentation& segmentation, const std::set<std::pair<int, int>>& neighbours,
-                                  double largest_extent_m, const DetectOptions& options) {
-  const std::vector<DepthSegment>& segments = segmentation.segments;
-  std::map<int, std::vector<int>> adjacent;
-  for (const auto& [a, b] : neighbours) {
-    adjacent[a].push_back(b);
-    adjacent[b].push_back(a);
-  }
-  struct Partial {
-    std::vector<int> members;  // sorted labels
-    Spans spans;
-  };
-  std::set<std::vector<int>> seen;
-  std::vector<Partial> level;
-  for (size_t k = 0; k < segments.size(); ++k) {
-    if (segments[k].spans.Extent() > largest_extent_m) continue;
-    Partial single{{static_cast<int>(k) + 1}, segments[k].spans};
-    seen.insert(single.members);
-    level.push_back(single);
-  }
-  std::vector<Partial> all = level;
-  for (int size = 2; size <= options.max_union_segments && !level.empty(); ++size) {
-    std::vector<Partial> next;
-    for (const Partial& partial : level) {
-      for (int member : partial.members) {
-        for (int other : adjacent[member]) {
-          if (std::binary_search(partial.members.begin(), partial.members.end(), other)) continue;
-          const DepthSegment& segment = segments[static_cast<size_t>(other - 1)];
-          const Spans spans = partial.spans.Union(segment.spans);
-          if (spans.Extent() > largest_extent_m) continue;
-          std::vector<int> members = partial.members;
-          members.insert(std::upper_bound(members.begin(), members.end(), other), other);
-          if (!seen.insert(members).second) continue;
-          next.push_back({members, spans});
-          if (static_cast<int>(all.size() + next.size()) >= options.max_regions) break;
-        }
-      }
-    }
-    all.insert(all.end(), next.begin(), next.end());
-    level.swap(next);
-    if (static_cast<int>(all.size()) >= options.max_regions) break;
-  }
-  std::vector<Proposal> proposals;
-  for (const Partial& partial : all) {
-    Proposal proposal;
-    proposal.segments = partial.members;
-    double weighted_depth = 0.0;
-    for (int label : partial.members) {
-      const DepthSegment& segment = segments[static_cast<size_t>(label - 1)];
-      proposal.box = proposal.pixels == 0 ? segment.box : (proposal.box | segment.box);
-      proposal.pixels += segment.pixels;
-      weighted_depth += segment.median_depth_m * segment.pixels;
-    }
-    proposal.depth_m = weighted_depth / std::max(1, proposal.pixels);
-    proposal.extent_m = partial.spans.Extent();
-    // The centre of the spans along the camera axes (directions 0..2).
-    for (int axis = 0; axis < 3; ++axis) {
-      proposal.centre_m[axis] = 0.5 * (partial.spans.low[static_cast<size_t>(axis)] + partial.spans.high[static_cast<size_t>(axis)]);
-    }
-    proposals.push_back(proposal);
-  }
-  return proposals;
 }
 
 // The fraction of a rendering's outline where the observed depth steps: for each rendered
@@ -789,8 +470,10 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
         detection.proposal = trial.proposal;
         detection.region = FilledRegionMask(segmentation.labels, out.support,
                                             out.proposals[static_cast<size_t>(trial.proposal)], options.fill_gap_px);
-        detection.result = EstimatePose(frame, {detection.object_id, detection.region}, *requests[job.request].bank,
-                                        solve_options, executor);
+        // The solve on the region as a mask: EstimatePose without its depth regions
+        // (solve_options.region_candidates is 0), so detection sits below EstimatePose.
+        detection.result = EstimatePoseOnMask(frame, {detection.object_id, detection.region},
+                                              *requests[job.request].bank, solve_options, executor);
         if (detection.result.success) {
           const TemplateBank& bank = *requests[job.request].bank;
           detection.check = CheckAgainstFrame(frame, bank, detection.result.cam_from_object,

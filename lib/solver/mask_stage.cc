@@ -17,14 +17,6 @@ bool TouchesBorder(const cv::Rect& box, const cv::Size& size) {
   return box.x == 0 || box.y == 0 || box.x + box.width == size.width || box.y + box.height == size.height;
 }
 
-
-// The area the corrected mask is rendered in: the caller's mask box grown by its longer
-// side on each side (an eroded or cut mask can be much smaller than the object).
-cv::Rect CorrectionArea(const cv::Rect& box) {
-  const int grow = std::max(box.width, box.height);
-  return cv::Rect(box.x - grow, box.y - grow, box.width + 2 * grow, box.height + 2 * grow);
-}
-
 }  // namespace
 
 // Fills *observation; returns an empty string, or what is wrong with the input.
@@ -142,39 +134,6 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
   observation->refine_grid =
       MakeEvaluationGrid(frame.camera, mask, depth, options.refine_grid, support, segmentation, unsure);
   return "";
-}
-
-void RefineWithCorrectedMask(const Frame& frame, const Instance& instance, const TemplateBank& bank,
-                             const SolverOptions& options, const Observation& observation,
-                             const ScoreOptions& online_score, const std::function<bool()>& out_of_time,
-                             Executor* executor, PoseResult* result) {
-  const cv::Mat given = instance.mask > 0;
-  const cv::Rect area = CorrectionArea(cv::boundingRect(given));
-  auto corrected_at = [&](const Eigen::Isometry3d& pose) {
-    return CorrectedMask(frame.camera, bank.online_mesh, pose, observation.depth,
-                         online_score.occlusion_margin_m, online_score.cull_backfaces, area);
-  };
-  cv::Mat corrected = corrected_at(result->cam_from_object);
-  if (options.mask_trust == MaskTrust::kDepth) {
-    for (int round = 0; round < options.mask_refine_rounds && !out_of_time(); ++round) {
-      if (cv::countNonZero(corrected) < options.min_valid_depth_pixels) break;
-      SolverOptions track_options = options;
-      track_options.mask_refine_rounds = 0;
-      const PoseResult again = TrackPose(frame, Instance{instance.object_id, corrected}, bank, track_options,
-                                         TrackSolveOptions(), {result->cam_from_object}, executor);
-      if (!again.success) break;
-      RasterImage scratch;
-      const PoseScore score = ScorePose(observation.refine_grid, bank.online_mesh, again.cam_from_object,
-                                        observation.z_m, online_score, &scratch);
-      if (!(score.s < result->details.s)) break;
-      result->cam_from_object = again.cam_from_object;
-      result->details = score;
-      ++result->mask_refined_rounds;
-      corrected = corrected_at(result->cam_from_object);
-    }
-  }
-  result->mask_iou = MaskIntersectionOverUnion(corrected, given);
-  result->corrected_mask = corrected;
 }
 
 }  // namespace g6d

@@ -2,25 +2,21 @@
 /// @file mask_stage.h
 /// The mask stage of the solver (internal to lib/solver): the caller's mask read as evidence
 /// before the search (PrepareObservation: leaks removed, depth segments, the grids every
-/// score is taken on) and refined with the answer after it (RefineWithCorrectedMask: the
-/// mask the pose implies, solved again from T_A while S improves, and its IoU with the
-/// caller's mask). EstimatePose and TrackPose call these; nothing outside the solver does.
+/// score is taken on). After the search the mask is refined with the answer (mask_refine.h).
+/// EstimatePoseOnMask and TrackPose call it; nothing outside the solver does.
 
-#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
-#include "core/executor.h"
 #include "core/frame.h"
 #include "solver/icp.h"
 #include "solver/observation.h"
-#include "solver/pipeline.h"
 #include "solver/region.h"
 #include "solver/score.h"
-#include "templates/template_bank.h"
+#include "solver/solver_options.h"
 
 namespace g6d {
 
@@ -62,16 +58,5 @@ struct Observation {
 /// object's. Returns an empty string, or what is wrong with the input (the solve's kBadInput).
 std::string PrepareObservation(const Frame& frame, const Instance& instance, const SolverOptions& options,
                                double diameter_m, Observation* observation);
-
-/// After the solve (MaskTrust::kDepth, options.mask_refine_rounds): ICP + MHPO from T_A
-/// (TrackPose) on the mask T_A implies (CorrectedMask), kept while S against the caller's mask
-/// (as evidence, `observation`) falls; then the corrected mask of the final T_A and its IoU
-/// with the caller's mask go into *result (for kExact too, without the refinement).
-/// `online_score` is the score options of the online mesh; `out_of_time` is asked before
-/// each round.
-void RefineWithCorrectedMask(const Frame& frame, const Instance& instance, const TemplateBank& bank,
-                             const SolverOptions& options, const Observation& observation,
-                             const ScoreOptions& online_score, const std::function<bool()>& out_of_time,
-                             Executor* executor, PoseResult* result);
 
 }  // namespace g6d

@@ -1,0 +1,44 @@
+#include "solver/detect_options.h"
+
+#include <sstream>
+
+namespace g6d {
+
+std::string DetectOptions::Check() const {
+  std::ostringstream out;
+  const std::string segment_problem = segments.Check();
+  if (!segment_problem.empty()) out << "DetectOptions." << segment_problem;
+  else if (max_planes < 0) out << "DetectOptions.max_planes must be >= 0 (got " << max_planes << ")";
+  else if (plane_iterations < 1) out << "DetectOptions.plane_iterations must be >= 1 (got " << plane_iterations << ")";
+  else if (plane_samples < 3) out << "DetectOptions.plane_samples must be >= 3 (got " << plane_samples << ")";
+  else if (!(plane_flatness_m >= 0.0 && plane_flatness_m < 0.1)) out << "DetectOptions.plane_flatness_m must be in [0, 0.1) m (got " << plane_flatness_m << ")";
+  else if (!(min_plane_fraction > 0.0 && min_plane_fraction <= 1.0)) out << "DetectOptions.min_plane_fraction must be in (0, 1] (got " << min_plane_fraction << ")";
+  else if (!(support_extent_factor >= 1.0)) out << "DetectOptions.support_extent_factor must be >= 1 (got " << support_extent_factor << ")";
+  else if (neighbour_gap_px < 1) out << "DetectOptions.neighbour_gap_px must be >= 1 (got " << neighbour_gap_px << ")";
+  else if (max_union_segments < 1) out << "DetectOptions.max_union_segments must be >= 1 (got " << max_union_segments << ")";
+  else if (max_regions < 1) out << "DetectOptions.max_regions must be >= 1 (got " << max_regions << ")";
+  else if (!(extent_margin_px >= 0.0)) out << "DetectOptions.extent_margin_px must be >= 0 (got " << extent_margin_px << ")";
+  else if (!(min_extent_fraction >= 0.0 && min_extent_fraction < 1.0)) out << "DetectOptions.min_extent_fraction must be in [0, 1) (got " << min_extent_fraction << ")";
+  else if (!(min_area_fraction >= 0.0 && min_area_fraction < 1.0)) out << "DetectOptions.min_area_fraction must be in [0, 1) (got " << min_area_fraction << ")";
+  else if (extra_candidates < 0) out << "DetectOptions.extra_candidates must be >= 0 (got " << extra_candidates << ")";
+  else if (!(colour_weight >= 0.0 && colour_weight <= 1.0)) out << "DetectOptions.colour_weight must be in [0, 1] (got " << colour_weight << ")";
+  else if (!(accept_confidence >= 0.0 && accept_confidence <= 1.0)) out << "DetectOptions.accept_confidence must be in [0, 1] (got " << accept_confidence << ")";
+  else if (!(accept_region_iou >= 0.0 && accept_region_iou <= 1.0)) out << "DetectOptions.accept_region_iou must be in [0, 1] (got " << accept_region_iou << ")";
+  else if (fill_gap_px < 0) out << "DetectOptions.fill_gap_px must be >= 0 (got " << fill_gap_px << ")";
+  else if (explain_away_passes < 0) out << "DetectOptions.explain_away_passes must be >= 0 (got " << explain_away_passes << ")";
+  else if (!(max_score > 0.0)) out << "DetectOptions.max_score must be > 0 (got " << max_score << ")";
+  else if (!(max_overlap >= 0.0 && max_overlap <= 1.0)) out << "DetectOptions.max_overlap must be in [0, 1] (got " << max_overlap << ")";
+  else if (ppf_extra < 0) out << "DetectOptions.ppf_extra must be >= 0 (got " << ppf_extra << ")";
+  else if (ppf_reference_stride < 1) out << "DetectOptions.ppf_reference_stride must be >= 1 (got " << ppf_reference_stride << ")";
+  else if (ppf_max_scene_points < 10) out << "DetectOptions.ppf_max_scene_points must be >= 10 (got " << ppf_max_scene_points << ")";
+  else if (!(ppf_surface_fraction > 0.0 && ppf_surface_fraction < 1.0)) out << "DetectOptions.ppf_surface_fraction must be in (0, 1) (got " << ppf_surface_fraction << ")";
+  else if (!(ppf_min_contour_support >= 0.0 && ppf_min_contour_support <= 1.0)) out << "DetectOptions.ppf_min_contour_support must be in [0, 1] (got " << ppf_min_contour_support << ")";
+  else if (!(max_free_space >= 0.0 && max_free_space <= 1.0)) out << "DetectOptions.max_free_space must be in [0, 1] (got " << max_free_space << ")";
+  else if (!(free_space_fraction > 0.0)) out << "DetectOptions.free_space_fraction must be > 0 (got " << free_space_fraction << ")";
+  else if (!(min_contour_support >= 0.0 && min_contour_support <= 1.0)) out << "DetectOptions.min_contour_support must be in [0, 1] (got " << min_contour_support << ")";
+  else if (!(ppf_contour_step_m >= 0.0)) out << "DetectOptions.ppf_contour_step_m must be >= 0 (got " << ppf_contour_step_m << ")";
+  else if (!(ppf_max_free_space >= 0.0 && ppf_max_free_space <= 1.0)) out << "DetectOptions.ppf_max_free_space must be in [0, 1] (got " << ppf_max_free_space << ")";
+  return out.str();
+}
+
+}  // namespace g6d

@@ -1,0 +1,91 @@
+#include "solver/finalists.h"
+
+#include <algorithm>
+#include <utility>
+
+#include "core/timer.h"
+
+namespace g6d {
+
+void ResolveFinalists(const SolverOptions& options, const TemplateBank& bank, const Frame& frame, const cv::Mat& mask,
+                      const MeshSymmetries& symmetries, const std::vector<Eigen::Vector3d>& distance_points,
+                      std::vector<Finalist> finalists, PoseResult* result) {
+  StageReport& stages = result->stages;
+  std::stable_sort(finalists.begin(), finalists.end(),
+                   [](const Finalist& a, const Finalist& b) { return a.score.s < b.score.s; });
+  const double same_m = options.ambiguity_distance_fraction * bank.diameter_m;
+  std::vector<Finalist> distinct;
+  for (const Finalist& f : finalists) {
+    bool is_new = true;
+    for (size_t k = 0; k < distinct.size() && is_new; ++k) {
+      is_new = SymmetricPoseDistance(symmetries, distance_points, f.cam_from_object, distinct[k].cam_from_object) > same_m;
+    }
+    if (is_new) distinct.push_back(f);
+  }
+  stages.distinct_finalists = static_cast<int>(distinct.size());
+  size_t chosen = 0;
+  std::vector<AppearanceScore> appearance(distinct.size());
+  if (options.appearance_tiebreak && !bank.appearance.Empty()) {
+    for (size_t k = 0; k < distinct.size(); ++k) {
+      if (distinct[k].score.s > distinct[0].score.s + options.appearance_margin) break;
+      appearance[k] = ScoreAppearance(options.appearance, bank.appearance, bank.online_mesh, frame.camera, frame.rgb, mask,
+                                      distinct[k].cam_from_object);
+      ++stages.appearance_compared;
+    }
+    // Only a valid comparison can overrule S: a pose whose visible model colours are
+    // uniform (invalid score) is neither better nor worse in appearance.
+    for (size_t k = 1; k < distinct.size() && appearance[0].valid; ++k) {
+      if (appearance[k].valid && appearance[k].agreement > appearance[chosen].agreement + options.appearance_min_gain) {
+        chosen = k;
+      }
+    }
+  }
+  if (chosen != 0) stages.appearance_changed = true;
+  result->cam_from_object = distinct[chosen].cam_from_object;
+  result->details = distinct[chosen].score;
+  stages.answer_hypothesis = distinct[chosen].hypothesis;
+  result->appearance_valid = appearance[chosen].valid;
+  result->appearance_agreement = appearance[chosen].agreement;
+  // Runner-up: the best distinct finalist by S that is not the answer moved by a
+  // symmetry of the shape (a printed box's flip that appearance cannot tell apart is the
+  // same shape: a symmetry, reported at build time, not an ambiguity).
+  const MeshSymmetries shape_symmetries = ShapeSymmetries(bank);
+  for (size_t k = 0; k < distinct.size(); ++k) {
+    if (k == chosen) continue;
+    if (SymmetricPoseDistance(shape_symmetries, distance_points, distinct[k].cam_from_object, distinct[chosen].cam_from_object) <=
+        same_m) {
+      continue;
+    }
+    result->has_runner_up = true;
+    result->runner_up_cam_from_object = distinct[k].cam_from_object;
+    result->runner_up_score = distinct[k].score.s;
+    result->runner_up_appearance_valid = appearance[k].valid;
+    result->runner_up_appearance_agreement = appearance[k].agreement;
+    const bool appearance_separates = appearance[chosen].valid && appearance[k].valid &&
+                                      appearance[chosen].agreement > appearance[k].agreement + options.appearance_min_gain;
+    result->ambiguous = distinct[k].score.s < distinct[chosen].score.s + options.ambiguity_margin && !appearance_separates;
+    break;
+  }
+}
+
+void RunFinalistStage(const SolveContext& c, std::vector<Finalist> finalists, const std::vector<Hypothesis>& kept,
+                      const std::vector<CorrespondenceSet>& sets, PoseResult* result) {
+  StageReport& stages = *c.stages;
+  const Stopwatch watch;
+  finalists.push_back(Finalist{result->cam_from_object, result->details, stages.answer_hypothesis});
+  if (!c.clock->OutOfTime()) {
+    ResolveFinalists(c.options, c.bank, c.frame, c.observation.mask, c.comparer.symmetries(), c.comparer.points(),
+                     std::move(finalists), result);
+  }
+  stages.finalists_ms = watch.ElapsedMs();
+  if (stages.answer_hypothesis >= 0) {
+    const int rank = kept[static_cast<size_t>(stages.answer_hypothesis)].set_rank;
+    stages.answer_from_ppf = rank < 0;
+    if (rank >= 0) {
+      stages.answer_set_rank = rank;
+      stages.answer_quality_ratio = sets[static_cast<size_t>(rank)].quality / sets.front().quality;
+    }
+  }
+}
+
+}  // namespace g6d

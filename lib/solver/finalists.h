@@ -1,0 +1,40 @@
+#pragma once
+/// @file finalists.h
+/// The finalists of a solve (internal to lib/solver): every hypothesis' best state after
+/// MHPO and T_A, symmetric duplicates merged, appearance as the tie-break, the runner-up and
+/// the ambiguity flag.
+
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "core/frame.h"
+#include "solver/match.h"
+#include "solver/result.h"
+#include "solver/score.h"
+#include "solver/solve_context.h"
+#include "solver/solver_options.h"
+#include "templates/template_bank.h"
+
+namespace g6d {
+
+struct Finalist {
+  Eigen::Isometry3d cam_from_object;
+  PoseScore score;
+  int hypothesis = -1;  // index of the kept hypothesis it came from; -1 = none (stage 6)
+};
+
+/// Among the finalists (T_A last): drops poses equal modulo the symmetries to a better one,
+/// lets appearance pick among those within options.appearance_margin of the best S, and
+/// sets the runner-up and the ambiguity flag of *result (whose T_A and details it may replace).
+void ResolveFinalists(const SolverOptions& options, const TemplateBank& bank, const Frame& frame, const cv::Mat& mask,
+                      const MeshSymmetries& symmetries, const std::vector<Eigen::Vector3d>& distance_points,
+                      std::vector<Finalist> finalists, PoseResult* result);
+
+/// The finalists (T_A last, as stage 6 may have moved it): symmetric duplicates merged,
+/// appearance tie-break, runner-up and ambiguity; then where the answer came from.
+void RunFinalistStage(const SolveContext& c, std::vector<Finalist> finalists, const std::vector<Hypothesis>& kept,
+                      const std::vector<CorrespondenceSet>& sets, PoseResult* result);
+
+}  // namespace g6d

@@ -1,0 +1,65 @@
+#pragma once
+/// @file proposals.h
+/// The depth's candidate regions (internal to lib/solver): support planes removed, neighbouring
+/// depth segments, and the segments and unions of them that fit an object, as DetectObjects
+/// forms them (detect.h: over a frame, or inside a mask that holds more than the object for
+/// SolveOnDepthRegions, depth_regions.h); each region as a mask.
+
+#include <set>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "core/frame.h"
+#include "solver/detect_options.h"
+#include "solver/segments.h"
+
+namespace g6d {
+
+/// One candidate region.
+struct Proposal {
+  std::vector<int> segments;  ///< labels (1-based) of DetectionReport::segmentation
+  cv::Rect box;               ///< pixel box
+  int pixels = 0;             ///< pixels with depth
+  double extent_m = 0.0;      ///< Spans::Extent of its points
+  double depth_m = 0.0;       ///< median depth (pixel-weighted over its segments)
+  Eigen::Vector3d centre_m = Eigen::Vector3d::Zero();  ///< centre of its spans' box, camera frame
+  int pass = 0;               ///< the pass whose segmentation its labels refer to (DetectionReport::passes)
+  /// A region of the point-pair-feature vote (DetectOptions::ppf_extra): CV_8U 0/255, frame
+  /// size, the pixels on the surface of a voted pose of object `ppf_request`; `segments` is
+  /// then empty. Empty for a region of the depth segments.
+  cv::Mat mask;
+  int ppf_request = -1;
+  double ppf_votes = 0.0;
+};
+
+/// Support planes (DetectOptions): RANSAC on a grid sample of the depth, one plane after the
+/// other; a plane's large connected inlier parts are the support. Returns the number of
+/// planes removed and fills *support (CV_8U 0/255).
+int FindSupport(const Frame& frame, const DetectOptions& options, double largest_diameter_m, cv::Mat* support);
+
+/// Pairs of segments (1-based labels, a < b) with pixels within `gap_px` of each other.
+std::set<std::pair<int, int>> NeighbourSegments(const cv::Mat& labels, int gap_px);
+
+/// The full-frame 0/255 mask of a region's segments.
+cv::Mat RegionMask(const cv::Mat& labels, const Proposal& proposal);
+
+/// The region as a segmenter would draw it: its segments plus the unclaimed pixels (no
+/// depth, or a depth fragment; not support, no other segment) within `gap_px` of them: the
+/// dark rims at the object's edges and the holes in its depth.
+cv::Mat FilledRegionMask(const cv::Mat& labels, const cv::Mat& support, const Proposal& proposal, int gap_px);
+
+/// The region's pixels (with depth: its segments') where `within` is set.
+int PixelsInside(const cv::Mat& labels, const Proposal& proposal, const cv::Mat& within);
+
+/// Pixels the two regions share (they share whole segments).
+int SharedPixels(const Proposal& a, const Proposal& b, const std::vector<DepthSegment>& segments);
+
+/// Regions: every segment that fits the largest object and the unions of up to
+/// max_union_segments neighbouring ones that still fit it.
+std::vector<Proposal> FormRegions(const DepthSegmentation& segmentation, const std::set<std::pair<int, int>>& neighbours,
+                                  double largest_extent_m, const DetectOptions& options);
+
+}  // namespace g6d

@@ -1,0 +1,48 @@
+#include "solver/solver_options.h"
+
+#include <cmath>
+#include <sstream>
+
+namespace g6d {
+
+std::string SolverOptions::Check() const {
+  std::string bad = query_orb.Check();
+  if (bad.empty()) bad = match.Check();
+  if (bad.empty()) bad = pnp.Check();
+  if (bad.empty()) bad = score.Check();
+  if (bad.empty()) bad = selection_grid.Check();
+  if (bad.empty()) bad = refine_grid.Check();
+  if (bad.empty()) bad = icp.Check();
+  if (bad.empty()) bad = mhpo.Check();
+  if (bad.empty()) bad = appearance.Check();
+  if (bad.empty()) bad = region.Check();
+  if (bad.empty()) bad = segments.Check();
+  if (bad.empty()) bad = ppf.Check();
+  if (!bad.empty()) return bad;
+  std::ostringstream out;
+  if (num_hypotheses < 1) out << "SolverOptions.num_hypotheses must be >= 1 (got " << num_hypotheses << ")";
+  else if (ppf_hypotheses < 0) out << "SolverOptions.ppf_hypotheses must be >= 0 (got " << ppf_hypotheses << ")";
+  else if (region_candidates < 0 || region_candidates > 16) out << "SolverOptions.region_candidates must be in [0, 16] (got " << region_candidates << ")";
+  else if (!(region_search_confidence >= 0.0 && region_search_confidence <= 1.0)) out << "SolverOptions.region_search_confidence must be in [0, 1] (got " << region_search_confidence << ")";
+  else if (!(neighbour_min_fraction > 0.0 && neighbour_min_fraction <= 1.0)) out << "SolverOptions.neighbour_min_fraction must be in (0, 1] (got " << neighbour_min_fraction << ")";
+  else if (max_search_regions < 0 || max_search_regions > 8) out << "SolverOptions.max_search_regions must be in [0, 8] (got " << max_search_regions << ")";
+  else if (max_observed_points < 10) out << "SolverOptions.max_observed_points must be >= 10 (got " << max_observed_points << ")";
+  else if (max_source_points < 10) out << "SolverOptions.max_source_points must be >= 10 (got " << max_source_points << ")";
+  else if (min_valid_depth_pixels < 3) out << "SolverOptions.min_valid_depth_pixels must be >= 3 (got " << min_valid_depth_pixels << ")";
+  else if (icp_coarse_points < 0) out << "SolverOptions.icp_coarse_points must be >= 0 (got " << icp_coarse_points << ")";
+  else if (icp_probe_iterations < 0) out << "SolverOptions.icp_probe_iterations must be >= 0 (got " << icp_probe_iterations << ")";
+  else if (icp_finish_hypotheses < 1) out << "SolverOptions.icp_finish_hypotheses must be >= 1 (got " << icp_finish_hypotheses << ")";
+  else if (!(pnp_min_quality_ratio >= 0.0 && pnp_min_quality_ratio <= 1.0)) out << "SolverOptions.pnp_min_quality_ratio must be in [0, 1] (got " << pnp_min_quality_ratio << ")";
+  else if (mask_refine_rounds < 0) out << "SolverOptions.mask_refine_rounds must be >= 0 (got " << mask_refine_rounds << ")";
+  else if (!(distinct_pose_fraction >= 0.0 && distinct_pose_fraction < 1.0)) out << "SolverOptions.distinct_pose_fraction must be in [0, 1) (got " << distinct_pose_fraction << ")";
+  else if (!(ambiguity_distance_fraction > 0.0 && ambiguity_distance_fraction < 10.0)) out << "SolverOptions.ambiguity_distance_fraction must be in (0, 10) (got " << ambiguity_distance_fraction << ")";
+  else if (!(ambiguity_margin >= 0.0 && ambiguity_margin < 2.0)) out << "SolverOptions.ambiguity_margin must be in [0, 2) (got " << ambiguity_margin << ")";
+  else if (!(appearance_margin >= 0.0 && appearance_margin < 2.0)) out << "SolverOptions.appearance_margin must be in [0, 2) (got " << appearance_margin << ")";
+  else if (!(appearance_min_gain >= 0.0 && appearance_min_gain <= 2.0)) out << "SolverOptions.appearance_min_gain must be in [0, 2] (got " << appearance_min_gain << ")";
+  else if (!std::isfinite(budget_ms)) out << "SolverOptions.budget_ms must be finite (got " << budget_ms << ")";
+  else if (!(confidence_score_weight < 0.0)) out << "SolverOptions.confidence_score_weight must be < 0 (got " << confidence_score_weight << ")";
+  else if (!std::isfinite(confidence_bias) || !std::isfinite(confidence_ambiguous_weight)) out << "SolverOptions.confidence_bias and confidence_ambiguous_weight must be finite";
+  return out.str();
+}
+
+}  // namespace g6d

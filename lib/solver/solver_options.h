@@ -1,0 +1,199 @@
+#pragma once
+/// @file solver_options.h
+/// What every solve of one instance is given: the instance (object id and mask) and the
+/// solver's options (SolverOptions, with Check()). Shared by every stage of lib/solver.
+
+#include <atomic>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "solver/icp.h"
+#include "solver/match.h"
+#include "solver/mhpo.h"
+#include "solver/observation.h"
+#include "solver/pnp.h"
+#include "solver/ppf.h"
+#include "solver/region.h"
+#include "solver/score.h"
+#include "solver/segments.h"
+#include "templates/appearance.h"
+#include "templates/features.h"
+
+namespace g6d {
+
+/// One instance to estimate: its object and its visible mask in the frame.
+struct Instance {
+  std::string object_id;  ///< must equal the bank's object id
+  cv::Mat mask;           ///< CV_8U, frame size, non-zero = visible object pixels
+};
+
+/// All options of EstimatePose. Defaults are the paper's where it gives them.
+struct SolverOptions {
+  OrbOptions query_orb = [] {
+    OrbOptions orb;
+    orb.max_features = 500;
+    return orb;
+  }();                          ///< ORB on the query crop (the crop options come from the bank)
+  /// How the instance mask is read. kDepth (default): as evidence checked by the depth, its
+  /// leaks onto the support plane and the background removed and the object it missed
+  /// counted per pose (region.h); kExact: the paper's, every mask pixel is object and no
+  /// other pixel is (bit for bit the solver before masks were evidence).
+  MaskTrust mask_trust = MaskTrust::kDepth;
+  RegionOptions region;         ///< the depth's check of the mask (kDepth)
+  /// The mask's depth segments (kDepth): each pose owns the segments it covers and the rest
+  /// are another object's (ScoreOptions::segment_own_fraction; a merged or boxed mask).
+  SegmentOptions segments;
+  /// kDepth: when a depth segment of the mask is wider than the object (a merged mask, a
+  /// box), the mask's segments are split at concave creases too (SegmentByDepthAndCreases),
+  /// so that objects touching at the same depth each own their part. Off: on LM-O's merged
+  /// masks it measured 75.1% against 76.6% without, boxes 82.4% either way (bench/RESULTS.md,
+  /// issue 23): there the touching objects' own concavities split them as well, and the
+  /// ownership of the pieces misleads S more than the merge did.
+  bool split_merged_at_creases = false;
+  /// When the mask's depth segments span more than the object can (kDepth: merged with a
+  /// neighbour, or a box), the search (features, matching, PnP) also runs on each of its
+  /// largest segments within the object's reach, at most this many; the hypotheses are
+  /// pooled. 0 = the whole region only.
+  int max_search_regions = 2;
+  /// The depth's own regions when the mask holds more than the object (kDepth): when the
+  /// mask's depth spans more than the object can reach (merged with a touching neighbour, a
+  /// box over neighbours), the regions the depth forms inside it (DetectObjects' proposals:
+  /// depth steps and concave creases, and unions of them that fit the object, ranked by
+  /// size and colour, detect.h) are solved too, the best `region_candidates` of them, each
+  /// as a mask of its own, and the answer with the lowest S_A wins. Objects that touch at
+  /// the same depth form one segment that ownership cannot split; the creases can. 0 = off.
+  int region_candidates = 2;
+  /// ... and also when the mask's answer is unsure: its confidence (the calibration below)
+  /// is under this (0.5: the answer is more likely wrong than right). A box or a mask that
+  /// missed most of the object can hold the object's region whole without spanning more
+  /// than it. 0 = only for masks wider than the object.
+  double region_search_confidence = 0.5;
+  /// A frame's instances read together (ExplainAwayNeighbours, neighbours.h; kDepth): an
+  /// instance whose mask holds more than the object, is a box, or whose answer is unsure is
+  /// solved again on its mask less the pixels the confident answers of lower S_A of the
+  /// frame's other instances explain, when they explain at least `neighbour_min_fraction`
+  /// of its mask; the lower S_A wins. Callers that solve one instance at a time ignore it.
+  bool explain_neighbours = true;
+  double neighbour_min_fraction = 0.05;
+  /// The mask refined with the pose (kDepth): after the solve, ICP + MHPO from T_A on the
+  /// mask T_A implies (CorrectedMask), accepted when S with the caller's mask as evidence
+  /// is lower; repeated while it improves, at most this many times (0 = off).
+  int mask_refine_rounds = 1;
+  MatchOptions match;           ///< τ_H = 64, N_P = 256
+  PnpOptions pnp;
+  /// Point-pair-feature hypotheses (ppf.h) from the depth of the search region, beside the
+  /// ORB-PnP ones: they need no texture (bare metal, plain plastic). Used when the bank has
+  /// a PPF model (TemplateBank::ppf); the two sources' poses meet in observable selection.
+  bool use_ppf = true;
+  PpfSearchOptions ppf;
+  /// Slots beyond K for the point-pair-feature poses: after observable selection kept the K
+  /// best PnP poses by E_obs, the best this many PPF poses by E_obs join them, so that ICP
+  /// and MHPO refine K + ppf_hypotheses poses. (Competing for the K slots instead, they
+  /// displaced a textured object's right PnP pose at small K.)
+  int ppf_hypotheses = 6;
+  int num_hypotheses = 18;      ///< N_H = K: hypotheses kept after observable selection
+  ScoreOptions score;           ///< ω_C = 0.70, λ_S = 10
+  GridOptions selection_grid = [] {
+    GridOptions grid;
+    grid.max_side_px = 96;
+    return grid;
+  }();                          ///< ROI grid for observable selection (eq. 7)
+  GridOptions refine_grid = [] {
+    GridOptions grid;
+    grid.max_side_px = 160;
+    return grid;
+  }();                          ///< ROI grid for ICP sources, MHPO and the final S
+  /// ρ = 0.70, κ_d = 0.35 (the paper's trimming); point-to-plane along the rendered
+  /// model's normals after 3 point-to-point iterations, stopped when the trimmed RMSE has
+  /// not improved for 5 iterations: on LM-O it converges in about a third of the paper's
+  /// point-to-point iterations and fits tighter (bench/RESULTS.md, issue 13).
+  IcpOptions icp = [] {
+    IcpOptions icp;
+    icp.point_to_plane = true;
+    icp.point_to_point_iterations = 3;
+    icp.stall_window = 5;
+    return icp;
+  }();
+  bool run_icp = true;          ///< stage 4 on/off (ablations)
+  int max_observed_points = 2500;  ///< observed cloud Y is subsampled to about this many points
+  int max_source_points = 600;     ///< rendered ICP source cloud size at most (fine)
+  /// ICP coarse to fine: each hypothesis converges on this many source points first, then
+  /// on max_source_points from there (0 = the full source only).
+  int icp_coarse_points = 150;
+  /// ICP probing: every kept hypothesis first gets only this many (coarse) iterations and
+  /// is scored (S); only the `icp_finish_hypotheses` best by S then run to convergence.
+  /// 0 = off: every hypothesis runs to convergence (the paper's schedule).
+  int icp_probe_iterations = 0;
+  int icp_finish_hypotheses = 6;
+  /// ICP source: only rendered points inside the observed mask (else also those outside
+  /// it that no unmasked occluder hides).
+  bool icp_source_in_mask = false;
+  MhpoOptions mhpo;             ///< λ_D = 0.1
+  bool run_mhpo = true;         ///< stage 5 on/off (ablations)
+  /// Stage 6, optional post-refinement (off by default, as in the paper): when S_A is
+  /// above `post_refine_trigger_s`, T_A's 180-degree flips about the three bounding-box
+  /// axes and depth re-centred copies become new hypotheses for ICP and MHPO; the best is
+  /// accepted only when its S is lower than S_A by more than `post_refine_margin`.
+  bool post_refine = false;
+  double post_refine_trigger_s = 0.15;
+  double post_refine_margin = 0.02;
+  int min_valid_depth_pixels = 30;  ///< fewer valid depth pixels in the mask = bad input
+  /// Refuse a mask that touches the image border (a truncated object). Off: truncated
+  /// objects are solved, the rendered silhouette outside the image never counts against a
+  /// pose, and the result says `truncated`.
+  bool reject_border_masks = false;
+  /// Time budget of one EstimatePose call, milliseconds; <= 0 = none. When it is used up the
+  /// solver skips the remaining work (always keeping the best-ranked template's PnP pose, so
+  /// that a pose can be returned) and returns T_A / S_A so far with `cut_short` set.
+  double budget_ms = 0.0;
+  /// When not null and it becomes true, the solve ends the same way as at the budget
+  /// (the service sets it at shutdown). Read only; the caller owns it.
+  const std::atomic<bool>* stop_requested = nullptr;
+  /// Hypotheses closer than this fraction of the diameter (ADD modulo the mesh's
+  /// symmetries) are one pose: observable selection fills its K slots with distinct poses.
+  double distinct_pose_fraction = 0.05;
+  /// Merge PnP poses closer than distinct_pose_fraction to a pose from a better-ranked
+  /// template before observable selection, so that each distinct pose is rendered once
+  /// (false: every PnP pose is scored and duplicates are dropped after ranking).
+  bool merge_pnp_poses = true;
+  /// PnP runs on the correspondence sets in rank order while Q_j is at least this fraction
+  /// of the best Q_1 (0 = all N_P sets).
+  double pnp_min_quality_ratio = 0.0;
+  /// Rasterize closed, outward-oriented meshes with back faces culled (no change to any
+  /// rendering; TemplateBank::online_mesh_closed / selection_mesh_closed).
+  bool cull_backfaces = true;
+  /// Observable selection renders TemplateBank::selection_mesh (about a quarter of the
+  /// online mesh's faces) on its 96 px grid instead of the online mesh.
+  bool coarse_selection_mesh = true;
+  /// Finalists (every hypothesis' best state after MHPO) farther than this fraction of
+  /// the diameter from T_A, modulo the symmetries, are different answers; the best of them
+  /// by S is the runner-up.
+  double ambiguity_distance_fraction = 0.1;
+  /// The answer is ambiguous when the runner-up's S is within this of S_A and appearance
+  /// does not separate the two.
+  double ambiguity_margin = 0.03;
+  /// Appearance breaks geometric ties (where the cache has a coloured appearance model):
+  /// among distinct finalists whose S is within `appearance_margin` of S_A, the one whose
+  /// colours agree best with the image wins, when its agreement (ZNCC, in [-1, 1]) beats
+  /// T_A's by more than `appearance_min_gain`.
+  bool appearance_tiebreak = true;
+  double appearance_margin = 0.05;
+  double appearance_min_gain = 0.1;
+  AppearanceOptions appearance;  ///< visibility and measure of the agreement
+  /// Confidence = 1 / (1 + exp(-(confidence_bias + confidence_score_weight * S_A +
+  /// confidence_ambiguous_weight * ambiguous))): the probability that the pose is within
+  /// ADD(-S) 0.1 d, a logistic fit over 589 answers (K = 18) of four datasets with rendered
+  /// and real depth (LM-O, YCB-V clutter and foam brick, the 40-frame sample), fit and
+  /// measured by scripts/accuracy.sh (scripts/calibrate_confidence.py on g6d-bench-dataset
+  /// --records); the leave-one-object-out reliability tables and their limits are in
+  /// bench/RESULTS.md.
+  double confidence_bias = 10.14;
+  double confidence_score_weight = -41.7;
+  double confidence_ambiguous_weight = -1.01;
+
+  /// Empty when valid, else names the bad field.
+  std::string Check() const;
+};
+
+}  // namespace g6d
