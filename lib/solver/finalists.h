@@ -19,6 +19,7 @@
 
 namespace g6d {
 
+/// A candidate answer: one kept hypothesis' best state after MHPO (or T_A), and its S.
 struct Finalist {
   Eigen::Isometry3d cam_from_object;
   PoseScore score;

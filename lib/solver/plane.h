@@ -1,7 +1,7 @@
 #pragma once
 /// @file plane.h
 /// A plane in the camera frame and its least-squares fit (internal to lib/solver: the
-/// support plane under a mask, region.cc, and the support planes of a frame, detect.cc).
+/// support plane under a mask, region.cc, and the support planes of a frame, proposals.cc).
 
 #include <cmath>
 #include <cstdint>

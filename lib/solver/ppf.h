@@ -7,7 +7,7 @@
 /// each reference point pairs with the points within the model's reach, every pair looks
 /// its feature up in the model's table (templates/ppf_model.h) and votes for a model point
 /// and a rotation about the reference normal; the peaks become poses, clustered, best
-/// first. They join the ORB-PnP hypotheses before observable selection (pipeline.h).
+/// first. They join the ORB-PnP hypotheses before observable selection (RunPpfStage, stages.h).
 
 #include <string>
 #include <vector>

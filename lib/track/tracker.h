@@ -2,7 +2,7 @@
 /// @file tracker.h
 /// Tracking (issue 14): per camera, a track per object instance keeps its last answer; an
 /// instance of a new frame that continues a track is solved from the track's (predicted)
-/// pose with a few ICP + MHPO iterations (TrackPose, pipeline.h) instead of the whole pipeline, and S_A
+/// pose with a few ICP + MHPO iterations (TrackPose, track_pose.h) instead of the whole pipeline, and S_A
 /// decides when that is not good enough and the full solver runs in the same frame.
 ///
 /// The Tracker holds the state and makes the decisions; it runs no threads. One frame is

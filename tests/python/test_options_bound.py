@@ -12,9 +12,9 @@ from conftest import SOURCE_DIR
 
 # Struct -> header. A nested options struct is checked by its own entry.
 STRUCTS = {
-    "SolverOptions": "lib/solver/pipeline.h",
-    "TrackSolveOptions": "lib/solver/pipeline.h",
-    "DetectOptions": "lib/solver/detect.h",
+    "SolverOptions": "lib/solver/solver_options.h",
+    "TrackSolveOptions": "lib/solver/track_pose.h",
+    "DetectOptions": "lib/solver/detect_options.h",
     "IdentifyOptions": "lib/solver/identify.h",
     "OrbOptions": "lib/templates/features.h",
     "RegionOptions": "lib/solver/region.h",

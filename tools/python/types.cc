@@ -311,7 +311,7 @@ void BindOptions(py::module_& module) {
     // stop_requested (a pointer to the caller's atomic flag) is not bound: a Python caller
     // bounds a solve with budget_ms.
     OptionsClass<T>(module, "SolverOptions",
-                    "All options of estimate_pose (solver/pipeline.h; the meaning and units of each field are "
+                    "All options of estimate_pose (solver/solver_options.h; the meaning and units of each field are "
                     "documented there). The defaults are the service's and g6d-solve's; K = num_hypotheses.")
         G6D_FIELD(query_orb) G6D_FIELD(mask_trust) G6D_FIELD(region) G6D_FIELD(segments)
         G6D_FIELD(split_merged_at_creases) G6D_FIELD(max_search_regions) G6D_FIELD(region_candidates)
@@ -331,7 +331,7 @@ void BindOptions(py::module_& module) {
   }
   {
     using T = TrackSolveOptions;
-    OptionsClass<T>(module, "TrackSolveOptions", "A solve from known poses, track_pose (solver/pipeline.h).")
+    OptionsClass<T>(module, "TrackSolveOptions", "A solve from known poses, track_pose (solver/track_pose.h).")
         G6D_FIELD(icp_iterations) G6D_FIELD(max_source_points) G6D_FIELD(max_observed_points)
         G6D_FIELD(mhpo_rounds) G6D_FIELD(appearance_search_deg) G6D_FIELD(appearance_step_deg)
         G6D_FIELD(score_appearance).Done();
@@ -344,7 +344,7 @@ void BindOptions(py::module_& module) {
   }
   {
     using T = DetectOptions;
-    OptionsClass<T>(module, "DetectOptions", "Finding objects without a mask, find_objects (solver/detect.h).")
+    OptionsClass<T>(module, "DetectOptions", "Finding objects without a mask, find_objects (solver/detect_options.h).")
         G6D_FIELD(segments) G6D_FIELD(max_planes) G6D_FIELD(plane_iterations) G6D_FIELD(plane_samples)
         G6D_FIELD(plane_flatness_m) G6D_FIELD(min_plane_fraction) G6D_FIELD(support_extent_factor)
         G6D_FIELD(neighbour_gap_px) G6D_FIELD(max_union_segments) G6D_FIELD(max_regions)
