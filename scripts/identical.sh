@@ -13,7 +13,7 @@
 #
 # Environment:
 #   DATA_DIR=../shared/data   DATASETS="lmo ycbv_real ycbv_clutter synth_dev"   IMAGES=5
-#   SAMPLE_FRAMES=6 (0 = no sample)   THREADS=1   K=18
+#   SAMPLE_FRAMES=6 (0 = no sample)   SAMPLE_WORK=out/identical/sample   THREADS=1   K=18
 # Exit status 0 when every run finished and, with BASE_OUT, everything compared equal.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -91,10 +91,14 @@ PY
 done
 
 if [[ "${SAMPLE_FRAMES}" != "0" ]]; then
+  # Made in one folder for every build, then copied: a cache records its mesh's path.
+  work="${SAMPLE_WORK:-out/identical/sample}"
   sample="${OUT}/sample"
   echo "[identical] the embedded sample (${SAMPLE_FRAMES} frames, seed 1)"
-  "${BUILD_DIR}/tools/g6d-make-sample" --out "${sample}" --frames "${SAMPLE_FRAMES}" --seed 1 --threads "${THREADS}" \
+  "${BUILD_DIR}/tools/g6d-make-sample" --out "${work}" --frames "${SAMPLE_FRAMES}" --seed 1 --threads "${THREADS}" \
     --no-log > "${OUT}/sample.log" 2>&1
+  rm -rf "${sample}"
+  cp -r "${work}" "${sample}"
   run_bench sample "${sample}" "$(dirname "$(find "${sample}" -name '*.g6dcache' | head -1)")" \
     "${sample}/test_targets_bop19.json"
 fi
