@@ -110,7 +110,7 @@ int main(int argc, char** argv) {
   app.add_flag("--no-icp", no_icp, "skip ICP (ablation)");
   app.add_option("--out", out_csv, "BOP results CSV to write");
   app.add_option("--every", every, "run every N-th target instance only (quick looks)")->capture_default_str();
-  app.add_option("--records", records_csv, "per-instance CSV (S_A, confidence, error, correct) for calibration");
+  app.add_option("--records", records_csv, "per-instance CSV (S_A, confidence, error, correct) for calibration; with --masks none one row per answer (S_A, the frame check, the region terms)");
   app.add_option("--pnp-iterations", pnp_iterations, "MSAC-PnP iterations at most (0 = default)");
   double budget_ms = 0.0;
   app.add_option("--budget-ms", budget_ms, "time budget per instance (0 = none): answers are cut short when it runs out");
@@ -234,6 +234,16 @@ int main(int argc, char** argv) {
   app.add_option("--detect-ppf-stride", detect_options.ppf_reference_stride,
                  "--masks none: every N-th scene point is a reference of the vote over the frame")
       ->capture_default_str();
+  bool no_shape = false;
+  app.add_flag("--detect-no-shape", no_shape,
+               "--masks none: rank the regions of objects without colour by size alone, not by their shape (PPF "
+               "support; ablation)");
+  app.add_option("--detect-shape-references", detect_options.shape_references,
+                 "--masks none: PPF reference points per depth segment for the shape term")
+      ->capture_default_str();
+  app.add_option("--detect-min-confidence", detect_options.min_confidence,
+                 "--masks none: an answer less confident than this is no answer")
+      ->capture_default_str();
   app.add_option("--detect-max-free-space", detect_options.max_free_space,
                  "--masks none: an answer seeing past its surface at more than this fraction of its pixels is none")
       ->capture_default_str();
@@ -258,6 +268,16 @@ int main(int argc, char** argv) {
   app.add_option("--detect-pictures", detect_pictures,
                  "--masks none: write a picture of the support, segments, solved regions and answers per image "
                  "into this folder");
+  int absent_requests = 0;
+  app.add_option("--absent-requests", absent_requests,
+                 "--masks none: per image, this many requests for objects of the dataset that are not in it (their "
+                 "answers are counted apart: NO_SOLUTION is right)")
+      ->capture_default_str();
+  bool detect_diagnose = false;
+  app.add_flag("--detect-diagnose", detect_diagnose,
+               "--masks none: per GT instance (visib_fract >= 0.1), the best IoU of any region formed and of the "
+               "regions solved for its object with its visible mask: where detection lost it (segments, ranking "
+               "or solve)");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -313,8 +333,8 @@ int main(int argc, char** argv) {
     options.pnp.local_optimization = !no_lo;
     if (every < 1) G6D_THROW("--every must be >= 1 (got " << every << ")");
     if (masks == "none") {
-      if (degrade_mode != "none" || identity != "given" || score_gt || oracle || !records_csv.empty()) {
-        G6D_THROW("--masks none takes none of --degrade-masks, --identity, --score-gt, --oracle, --records");
+      if (degrade_mode != "none" || identity != "given" || score_gt || oracle) {
+        G6D_THROW("--masks none takes none of --degrade-masks, --identity, --score-gt or --oracle");
       }
       g6d::bench::DetectBenchmarkArgs detect_args;
       detect_args.dataset_dir = dataset_dir;
@@ -323,11 +343,15 @@ int main(int argc, char** argv) {
       detect_args.adds_ids = adds_ids;
       detect_args.out_csv = out_csv;
       detect_args.pictures_dir = detect_pictures;
+      detect_args.diagnose = detect_diagnose;
+      detect_args.absent_requests = absent_requests;
+      detect_args.records_csv = records_csv;
       detect_args.threads = threads;
       detect_args.every = every;
       detect_args.limit = limit;
       detect_args.solver = options;
       detect_args.detect = detect_options;
+      if (no_shape) detect_args.detect.rank_uncoloured_by_shape = false;
       return g6d::bench::RunDetectBenchmark(detect_args);
     }
     degrade.mode = g6d::ParseMaskDegradation(degrade_mode);

@@ -24,6 +24,31 @@
 namespace g6d::bench {
 namespace {
 
+// The full-frame pixels of a region (its segments in its pass's labels, or its own mask).
+cv::Mat ProposalPixels(const DetectionReport& report, const Proposal& proposal) {
+  if (!proposal.mask.empty()) return proposal.mask;
+  const cv::Mat& labels = report.passes[static_cast<size_t>(proposal.pass)].segmentation.labels;
+  cv::Mat mask = cv::Mat::zeros(labels.size(), CV_8U);
+  for (int v = proposal.box.y; v < proposal.box.y + proposal.box.height; ++v) {
+    const int* l = labels.ptr<int>(v);
+    uint8_t* m = mask.ptr<uint8_t>(v);
+    for (int u = proposal.box.x; u < proposal.box.x + proposal.box.width; ++u) {
+      if (l[u] > 0 && std::binary_search(proposal.segments.begin(), proposal.segments.end(), l[u])) m[u] = 255;
+    }
+  }
+  return mask;
+}
+
+double Iou(const cv::Mat& a, const cv::Mat& b) {
+  const int both = cv::countNonZero(a & b), either = cv::countNonZero(a | b);
+  return either > 0 ? static_cast<double>(both) / either : 0.0;
+}
+
+// Where detection lost the GT instances (DetectBenchmarkArgs::diagnose).
+struct Diagnosis {
+  int instances = 0, formed = 0, ranked = 0, solved = 0, correct = 0;
+};
+
 double MeanOf(const std::vector<double>& values) {
   double sum = 0.0;
   for (double value : values) sum += value;
@@ -56,6 +81,16 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
   std::map<std::string, std::vector<double>> times;
   std::vector<double> image_ms, solves, regions;
   int done = 0;
+  Diagnosis diagnosis;
+  int absent_asked = 0, absent_answered = 0, absent_confident = 0;
+  std::FILE* records = nullptr;
+  if (!args.records_csv.empty()) {
+    records = std::fopen(args.records_csv.c_str(), "w");
+    if (!records) G6D_THROW("cannot write '" << args.records_csv << "'");
+    std::fprintf(records,
+                 "scene_id,im_id,obj_id,absent,score,confidence,ambiguous,on_surface,free_space,contour_support,"
+                 "rendered_pixels,region_iou,size_term,colour_term,shape_term,rank,runner_up_margin,error_d,correct\n");
+  }
   for (size_t i = 0; i < images.size(); ++i) {
     if (static_cast<int>(i) % args.every != 0) continue;
     if (args.limit > 0 && done >= args.limit) break;
@@ -71,7 +106,24 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
     frame.camera.height = frame.rgb.rows;
     std::vector<DetectRequest> requests;
     std::vector<int> obj_of_request;
-    for (const BopTarget& target : targets_of.at(images[i])) {
+    std::vector<BopTarget> image_targets = targets_of.at(images[i]);
+    std::set<int> present;
+    for (const BopGtInstance& gt : bop_frame.gt) present.insert(gt.obj_id);
+    if (args.absent_requests > 0) {
+      std::vector<int> absent;
+      for (const auto& [obj_id, info] : dataset.objects) {
+        if (!present.count(obj_id)) absent.push_back(obj_id);
+      }
+      for (int k = 0; k < args.absent_requests && k < static_cast<int>(absent.size()); ++k) {
+        BopTarget target;
+        target.scene_id = scene_id;
+        target.im_id = im_id;
+        target.obj_id = absent[(i * static_cast<size_t>(args.absent_requests) + static_cast<size_t>(k)) % absent.size()];
+        target.inst_count = 1;
+        image_targets.push_back(target);
+      }
+    }
+    for (const BopTarget& target : image_targets) {
       if (!objects.count(target.obj_id)) {
         objects.emplace(target.obj_id, LoadBenchObject(dataset, target.obj_id, args.caches_dir, args.adds_ids));
       }
@@ -80,7 +132,11 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
       request.count = target.inst_count;
       requests.push_back(request);
       obj_of_request.push_back(target.obj_id);
-      evaluated_targets.push_back(target);
+      if (present.count(target.obj_id)) {
+        evaluated_targets.push_back(target);
+      } else {
+        ++absent_asked;
+      }
     }
     DetectionReport report;
     const Stopwatch watch;
@@ -94,12 +150,13 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
     times["propose"].push_back(report.propose_ms);
     times["ppf"].push_back(report.ppf_ms);
     times["rank"].push_back(report.rank_ms);
+    times["shape"].push_back(report.shape_ms);
     times["solve"].push_back(report.solve_ms);
     times["select"].push_back(report.select_ms);
     ++done;
-    std::fprintf(stderr, "[%d] scene %d im %d: %s, %.0f ms (support %.0f, segment %.0f, propose %.0f, ppf %.0f (%d regions), rank %.0f, solve %.0f)\n",
+    std::fprintf(stderr, "[%d] scene %d im %d: %s, %.0f ms (support %.0f, segment %.0f, propose %.0f, ppf %.0f (%d regions), rank %.0f (shape %.0f), solve %.0f)\n",
                  done, scene_id, im_id, report.message.c_str(), ms, report.support_ms, report.segment_ms,
-                 report.propose_ms, report.ppf_ms, report.ppf_regions, report.rank_ms, report.solve_ms);
+                 report.propose_ms, report.ppf_ms, report.ppf_regions, report.rank_ms, report.shape_ms, report.solve_ms);
     for (const Detection& detection : detections) {
       const int obj_id = obj_of_request[static_cast<size_t>(detection.request)];
       const BenchObject& object = objects.at(obj_id);
@@ -109,12 +166,40 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
         best = std::min(best, object.symmetric ? ComputeAdds(detection.result.cam_from_object, gt.cam_from_object, object.points)
                                                : ComputeAdd(detection.result.cam_from_object, gt.cam_from_object, object.points));
       }
-      std::fprintf(stderr, "    %s: S %.3f conf %.2f free %.2f contour %.2f, ADD%s to the nearest GT %.1f mm (%.2f d)%s, region %d (%zu segments)\n",
+      const bool absent = !present.count(obj_id);
+      const bool correct = !absent && IsAddCorrect(best, object.diameter_m);
+      std::fprintf(stderr, "    %s: S %.3f conf %.2f free %.2f contour %.2f, %s, region %d (%zu segments)\n",
                    detection.object_id.c_str(), detection.result.score, detection.result.confidence,
                    detection.check.free_space, detection.check.contour_support,
-                   object.symmetric ? "-S" : "", best * 1000, best / object.diameter_m,
-                   IsAddCorrect(best, object.diameter_m) ? "" : " WRONG", detection.proposal,
-                   report.proposals[static_cast<size_t>(detection.proposal)].segments.size());
+                   absent ? "ABSENT object answered"
+                          : (std::string("ADD") + (object.symmetric ? "-S" : "") + " to the nearest GT " +
+                             std::to_string(static_cast<int>(std::lround(best * 1000))) + " mm" + (correct ? "" : " WRONG")).c_str(),
+                   detection.proposal, report.proposals[static_cast<size_t>(detection.proposal)].segments.size());
+      if (records) {
+        const CandidateTrial* trial = nullptr;
+        for (const CandidateTrial& t : report.trials) {
+          if (t.request == detection.request && t.proposal == detection.proposal) trial = &t;
+        }
+        // The margin to the runner-up: the best S_A of the object's other solved regions
+        // that do not overlap this answer's, less this S_A (2 when none).
+        double runner_up = 2.0;
+        for (const CandidateTrial& t : report.trials) {
+          if (t.request != detection.request || !t.solved || !t.success || t.proposal == detection.proposal) continue;
+          runner_up = std::min(runner_up, t.score);
+        }
+        std::fprintf(records, "%d,%d,%d,%d,%.6f,%.6f,%d,%.4f,%.4f,%.4f,%d,%.4f,%.4f,%.4f,%.4f,%.4f,%.6f,%.4f,%d\n", scene_id,
+                     im_id, obj_id, absent ? 1 : 0, detection.result.score, detection.result.confidence,
+                     detection.result.ambiguous ? 1 : 0, detection.check.on_surface, detection.check.free_space,
+                     detection.check.contour_support, detection.check.rendered_pixels, trial ? trial->region_iou : 0.0,
+                     trial ? trial->size_term : 0.0, trial ? trial->colour_term : 0.5, trial ? trial->shape_term : 0.5,
+                     trial ? trial->rank : 0.0, runner_up - detection.result.score,
+                     absent ? -1.0 : best / object.diameter_m, correct ? 1 : 0);
+      }
+      if (absent) {
+        ++absent_answered;
+        absent_confident += detection.result.confidence >= 0.9;
+        continue;  // not an estimate of any target
+      }
       BopEstimate estimate;
       estimate.scene_id = scene_id;
       estimate.im_id = im_id;
@@ -123,6 +208,48 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
       estimate.cam_from_object = detection.result.cam_from_object;
       estimate.time_s = ms / 1000.0;
       estimates.push_back(estimate);
+    }
+    if (args.diagnose) {
+      // Each GT instance of a requested object: the best IoU of any region (all passes), of
+      // the regions ranked for its object, and of those solved; then whether an answer of
+      // its object is right for it.
+      std::vector<cv::Mat> pixels(report.proposals.size());
+      for (size_t p = 0; p < report.proposals.size(); ++p) pixels[p] = ProposalPixels(report, report.proposals[p]);
+      for (size_t g = 0; g < bop_frame.gt.size(); ++g) {
+        const BopGtInstance& gt = bop_frame.gt[g];
+        const auto request = std::find(obj_of_request.begin(), obj_of_request.end(), gt.obj_id);
+        if (request == obj_of_request.end() || !gt.info || gt.info->visib_fract < 0.1) continue;
+        const int r = static_cast<int>(request - obj_of_request.begin());
+        const cv::Mat visible = LoadBopMaskVisib(scene, im_id, static_cast<int>(g)) > 0;
+        const cv::Mat with_depth = visible & (frame.depth > 0.0f);
+        const int depth_pixels = cv::countNonZero(with_depth);
+        const double on_support =
+            depth_pixels > 0 ? static_cast<double>(cv::countNonZero(with_depth & report.support)) / depth_pixels : 0.0;
+        const double has_depth = static_cast<double>(depth_pixels) / std::max(1, cv::countNonZero(visible));
+        double formed = 0.0, ranked = 0.0, solved = 0.0;
+        for (size_t p = 0; p < pixels.size(); ++p) formed = std::max(formed, Iou(pixels[p], visible));
+        for (const CandidateTrial& trial : report.trials) {
+          if (trial.request != r) continue;
+          const double iou = Iou(pixels[static_cast<size_t>(trial.proposal)], visible);
+          ranked = std::max(ranked, iou);
+          if (trial.solved) solved = std::max(solved, iou);
+        }
+        const BenchObject& object = objects.at(gt.obj_id);
+        bool correct = false;
+        for (const Detection& detection : detections) {
+          if (detection.request != r) continue;
+          const double error = object.symmetric ? ComputeAdds(detection.result.cam_from_object, gt.cam_from_object, object.points)
+                                                : ComputeAdd(detection.result.cam_from_object, gt.cam_from_object, object.points);
+          correct = correct || IsAddCorrect(error, object.diameter_m);
+        }
+        ++diagnosis.instances;
+        diagnosis.formed += formed >= 0.5;
+        diagnosis.ranked += ranked >= 0.5;
+        diagnosis.solved += solved >= 0.5;
+        diagnosis.correct += correct;
+        std::fprintf(stderr, "    GT %zu obj %d visib %.2f depth %.2f support %.2f: best region IoU %.2f, ranked %.2f, solved %.2f, %s\n", g,
+                     gt.obj_id, gt.info->visib_fract, has_depth, on_support, formed, ranked, solved, correct ? "found" : "MISSED");
+      }
     }
     if (!args.pictures_dir.empty()) {
       cv::Mat picture;
@@ -144,12 +271,13 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
                    tried, succeeded);
       for (const CandidateTrial& trial : report.trials) {
         if (trial.request != static_cast<int>(r) || !trial.solved) continue;
-        std::fprintf(stderr, " [region %d rank %.2f (size %.2f colour %.2f) S %.3f IoU %.2f %.0f ms]", trial.proposal, trial.rank,
-                     trial.size_term, trial.colour_term, trial.score, trial.region_iou, trial.ms);
+        std::fprintf(stderr, " [region %d rank %.2f (size %.2f colour %.2f shape %.2f) S %.3f IoU %.2f %.0f ms]", trial.proposal,
+                     trial.rank, trial.size_term, trial.colour_term, trial.shape_term, trial.score, trial.region_iou, trial.ms);
       }
       std::fprintf(stderr, "\n");
     }
   }
+  if (records) std::fclose(records);
   if (!args.out_csv.empty()) WriteBopCsv(args.out_csv, estimates);
 
   BopEvalOptions eval_options;
@@ -171,8 +299,23 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
               Percentile(image_ms, 0.5), Percentile(image_ms, 0.95), MeanOf(image_ms), Percentile(solves, 0.5),
               Percentile(regions, 0.5));
   std::printf("| stage | p50 | p95 |\n|---|---|---|\n");
-  for (const char* stage : {"support", "segment", "propose", "ppf", "rank", "solve", "select"}) {
+  for (const char* stage : {"support", "segment", "propose", "ppf", "rank", "shape", "solve", "select"}) {
     std::printf("| %s | %.1f | %.1f |\n", stage, Percentile(times[stage], 0.5), Percentile(times[stage], 0.95));
+  }
+  if (absent_asked > 0) {
+    std::printf("\nrequests for absent objects: %d; answered NO_SOLUTION %d (%.1f%%); answered anyway %d, with "
+                "confidence >= 0.9 %d\n",
+                absent_asked, absent_asked - absent_answered, 100.0 * (absent_asked - absent_answered) / absent_asked,
+                absent_answered, absent_confident);
+  }
+  if (args.diagnose) {
+    auto share = [&](int n) { return diagnosis.instances > 0 ? 100.0 * n / diagnosis.instances : 0.0; };
+    std::printf("\nwhere detection lost them (GT instances with visib_fract >= 0.1 of requested objects; a region "
+                "\"holds\" an instance at IoU >= 0.5 with its visible mask):\n");
+    std::printf("| instances | a region holds it | ... ranked for its object | ... solved | answered right |\n"
+                "|---|---|---|---|---|\n| %d | %d (%.1f%%) | %d (%.1f%%) | %d (%.1f%%) | %d (%.1f%%) |\n",
+                diagnosis.instances, diagnosis.formed, share(diagnosis.formed), diagnosis.ranked, share(diagnosis.ranked),
+                diagnosis.solved, share(diagnosis.solved), diagnosis.correct, share(diagnosis.correct));
   }
   struct rusage usage;
   getrusage(RUSAGE_SELF, &usage);

@@ -25,6 +25,18 @@ struct DetectBenchmarkArgs {
   int threads = 2;
   int every = 1;              ///< every N-th image only
   int limit = 0;              ///< at most this many images (0 = all)
+  /// Per GT instance, where detection lost it: no region formed, not solved, or solved
+  /// wrong (best IoU of the regions with its visible mask; a summary table at the end).
+  bool diagnose = false;
+  /// Requests for objects that are not in the image: this many per image, besides its
+  /// targets (the dataset's objects without a GT instance there, taken in turn). Their
+  /// answers are counted apart (an answer for an absent object is wrong; no answer is the
+  /// right one) and stay out of the BOP scores. Targets of --targets FILE whose object has
+  /// no GT instance in their image are absent requests too.
+  int absent_requests = 0;
+  /// Per answer: the features the confidence is fitted on (S_A, the frame check, the
+  /// region's terms), the confidence, and whether it is right ("" = none).
+  std::string records_csv;
   SolverOptions solver;
   DetectOptions detect;
 };

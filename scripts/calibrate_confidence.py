@@ -61,7 +61,8 @@ def solve(a, b):
     return [m[i][n] / m[i][i] for i in range(n)]
 
 
-def fit(rows, l2=1e-3):
+def fit(rows, l2=1e-3, features=features):
+    """Logistic regression of r["y"] on features(r) (Newton's method, L2 penalty)."""
     k = len(features(rows[0]))
     w = [0.0] * k
     for _ in range(100):
@@ -82,7 +83,7 @@ def fit(rows, l2=1e-3):
     return w
 
 
-def predict(w, r):
+def predict(w, r, features=features):
     return sigmoid(sum(wi * xi for wi, xi in zip(w, features(r))))
 
 

@@ -6,11 +6,13 @@
 # confidence >= 0.9, and the latency p50 (per instance with masks, per image without).
 #
 #   bash scripts/geometry.sh                                  # this checkout's build
+#   bash scripts/geometry.sh --every 3                        # extra flags go to every run
 #   BASE_BUILD=../g6d-base/build bash scripts/geometry.sh     # and an older build, alternating
 #
 # Environment:
 #   DATA_DIR=../shared/data   DATASETS="synth_dev lmo ycbv_clutter ycbv_real"
 #   MODES="gt none"           OUT=out/geometry   BUILD_DIR=build   THREADS=2   K=18
+#   ABSENT=1 (requests for objects not in the image, per image, without masks; 0 = none)
 # ADD-S: models_info's symmetric objects, plus YCB-V's can and foam brick (by name).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -21,6 +23,7 @@ OUT="${OUT:-out/geometry}"
 BUILD_DIR="${BUILD_DIR:-build}"
 THREADS="${THREADS:-2}"
 K="${K:-18}"
+ABSENT="${ABSENT:-1}"
 if [[ ! -d "${DATA_DIR}" ]]; then
   echo "[geometry] ${DATA_DIR} does not exist (set DATA_DIR)" >&2
   exit 2
@@ -59,7 +62,12 @@ for name in ${DATASETS}; do
       build="${BUILDS[$label]}"
       run="${OUT}/${label}/${name}_${mode}"
       extra=(--masks "${mode}")
-      [[ "${mode}" == "gt" ]] && extra+=(--records "${run}.records.csv")
+      # Answers' records without masks, and requests for absent objects (ABSENT per image),
+      # where the build has them (older builds, as a BASE_BUILD, do not).
+      if [[ "${mode}" == "gt" ]] || "${build}/bench/g6d-bench-dataset" --help | grep -q -- --absent-requests; then
+        extra+=(--records "${run}.records.csv")
+        [[ "${mode}" == "none" && "${ABSENT}" != "0" ]] && extra+=(--absent-requests "${ABSENT}")
+      fi
       echo "[geometry] ${label}: ${name}, masks ${mode}"
       "${build}/bench/g6d-bench-dataset" --dataset "${dataset}" --caches "${OUT}/${label}/caches/${name}" \
         --threads "${THREADS}" --hypotheses "${K}" ${adds_ids:+--adds-ids "${adds_ids}"} --out "${run}.csv" \
@@ -87,8 +95,14 @@ for name in datasets:
             else:
                 add, ar = row[4].strip(), row[5].strip()
                 answers = int(row[3])
-                log = open(run + ".log").read()
-                wrong = len(re.findall(r"conf (0\.9\d|1\.00)[^\n]*WRONG", log))
+                try:
+                    records = list(csv.DictReader(open(run + ".records.csv")))
+                    wrong = sum(1 for r in records if r["absent"] == "0" and r["correct"] == "0" and float(r["confidence"]) >= 0.9)
+                except FileNotFoundError:  # an older build: its log names the wrong answers
+                    wrong = len(re.findall(r"conf (0\.9\d|1\.00)[^\n]*WRONG", open(run + ".log").read()))
+                absent = re.search(r"requests for absent objects: (\d+); answered NO_SOLUTION \d+ \(([\d.]+)%\)", text)
+                if absent:
+                    answers = f"{answers}; absent {absent.group(1)}: {absent.group(2)}% NO_SOLUTION"
                 p50 = re.search(r"latency per image \(ms\): p50 ([\d.]+)", text).group(1)
             print(f"| {name} | {mode} | {label} | {add} | {ar} | {answers} | {wrong} | {p50} |")
 PY

@@ -2,6 +2,8 @@
 // plane (depth of the table ray-cast, 1 mm noise), no masks given.
 #include "solver/detect.h"
 
+#include <cmath>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
@@ -306,6 +308,29 @@ TEST_F(DetectTest, ANeighboursConfidentAnswerTakesItsPixelsOutOfAMergedMask) {
   }
 }
 
+TEST_F(DetectTest, AnObjectThatIsNotThereGetsNoAnswer) {
+  // Only the box stands on the table; the bar is asked for too.
+  const Scene scene = RenderScene({&Box()}, {OnTable(Box(), 0.0, 0.3)}, 11);
+  ThreadPool pool(2);
+  DetectOptions options;
+  options.max_overlap = 1.0;  // the bar's pose may lie on the box's pixels: only its confidence can refuse it
+  DetectionReport report;
+  const std::vector<Detection> detections =
+      DetectObjects(scene.frame, {{&Box().bank, 1}, {&Bar().bank, 1}}, QuickSolver(), options, &pool, &report);
+  ASSERT_TRUE(report.success) << report.message;
+  ASSERT_EQ(detections.size(), 1u) << report.message;
+  EXPECT_EQ(detections[0].object_id, Box().id);
+  EXPECT_LT(AddOf(detections[0], Box(), scene.poses[0]), 0.1 * Box().bank.diameter_m);
+  EXPECT_GT(detections[0].result.confidence, 0.5);
+  // Without the confidence's floor the bar's best guess is answered, and is unsure.
+  options.min_confidence = 0.0;
+  const std::vector<Detection> guesses =
+      DetectObjects(scene.frame, {{&Box().bank, 1}, {&Bar().bank, 1}}, QuickSolver(), options, &pool, nullptr);
+  for (const Detection& guess : guesses) {
+    if (guess.object_id == Bar().id) EXPECT_LT(guess.result.confidence, DetectOptions().min_confidence);
+  }
+}
+
 TEST_F(DetectTest, AnEmptyTableGivesNoAnswerAndSolvesNothing) {
   const Scene scene = RenderScene({}, {}, 5);
   ThreadPool pool(2);
@@ -397,6 +422,35 @@ TEST(DetectOptions, CheckNamesTheBadField) {
   options = DetectOptions();
   options.support_extent_factor = 0.5;
   EXPECT_NE(options.Check().find("support_extent_factor"), std::string::npos);
+  options = DetectOptions();
+  options.min_confidence = 1.5;
+  EXPECT_NE(options.Check().find("min_confidence"), std::string::npos);
+  options = DetectOptions();
+  options.confidence_on_surface_weight = std::nan("");
+  EXPECT_NE(options.Check().find("confidence_"), std::string::npos);
+  options = DetectOptions();
+  options.shape_references = 0;
+  EXPECT_NE(options.Check().find("shape_references"), std::string::npos);
+}
+
+TEST(DetectionConfidence, RisesWithWhatTheFrameConfirmsAndFallsWithS) {
+  const DetectOptions options;
+  PoseResult result;
+  result.score = 0.1;
+  FrameCheck check;
+  check.on_surface = 0.8;
+  check.contour_support = 0.6;
+  const double base = DetectionConfidence(options, result, check, 0.8);
+  EXPECT_GT(base, 0.5);
+  EXPECT_LT(base, 1.0);
+  FrameCheck worse = check;
+  worse.on_surface = 0.3;  // most of the rendered model is not where the depth is
+  EXPECT_LT(DetectionConfidence(options, result, worse, 0.8), base - 0.2);
+  PoseResult higher = result;
+  higher.score = 0.3;
+  EXPECT_LT(DetectionConfidence(options, higher, check, 0.8), base);
+  higher.score = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(DetectionConfidence(options, higher, check, 0.8), 0.0);
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 #include <random>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
 #include "core/executor.h"
@@ -168,6 +169,56 @@ TEST_P(PpfVote, FindsAnAsymmetricObjectInRenderedDepth) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Seeds, PpfVote, ::testing::Values(1, 2, 3, 4, 5));
+
+TEST(PpfReferenceSupport, IsHigherOnTheObjectThanOnACylinderBesideIt) {
+  const Mesh mesh = MakeLShape();
+  const PpfModel model = BuildPpfModel(mesh, kLShapeDiameter, PpfModelOptions{});
+  const Camera camera = LmoCamera();
+  Eigen::Isometry3d truth = Eigen::Isometry3d::Identity();
+  truth.linear() = AxisAngle(0.7, Eigen::Vector3d(1.0, 2.0, 0.5));
+  truth.translation() = Eigen::Vector3d(0.05, 0.0, 0.7);
+  RasterImage raster;
+  Rasterize(mesh, camera, truth, RasterOptions{}, &raster);
+  // A lying cylinder (radius 4 cm, axis along the image's rows) left of the object: a surface
+  // of the object's size but not of its shape.
+  cv::Mat depth = raster.depth.clone();
+  const cv::Rect object_box = cv::boundingRect(raster.Mask());
+  const int cylinder_right = object_box.x - 10;
+  ASSERT_GT(cylinder_right, 150);
+  const double radius = 0.04, axis_z = 0.72, focal = camera.fx;
+  for (int v = 140; v < 340; ++v) {
+    for (int u = cylinder_right - 100; u < cylinder_right; ++u) {
+      // Across the cylinder: x in the camera frame at its front, about (u - centre) z / f.
+      const double x = (u - (cylinder_right - 50)) * (axis_z - radius) / focal;
+      if (std::abs(x) >= radius) continue;
+      depth.at<float>(v, u) = static_cast<float>(axis_z - std::sqrt(radius * radius - x * x));
+    }
+  }
+  const PpfSearchOptions options;
+  const PpfScene scene = MakePpfScene(camera, depth, cv::Mat(), model.step_m, model.options.normal_cluster_deg, options);
+  std::vector<int> on_object, on_cylinder;
+  for (size_t i = 0; i < scene.points.size(); ++i) {
+    const Eigen::Vector2d uv = camera.Project(scene.points[i].cast<double>());
+    (uv.x() < cylinder_right ? on_cylinder : on_object).push_back(static_cast<int>(i));
+  }
+  ASSERT_GT(on_object.size(), 20u);
+  ASSERT_GT(on_cylinder.size(), 20u);
+  InlineExecutor executor;
+  auto median = [&](const std::vector<int>& references) {
+    std::vector<float> support = PpfReferenceSupport(model, scene, references, options, &executor);
+    std::nth_element(support.begin(), support.begin() + static_cast<long>(support.size() / 2), support.end());
+    return support[support.size() / 2];
+  };
+  const float object_support = median(on_object), cylinder_support = median(on_cylinder);
+  EXPECT_GT(object_support, 1.3f * cylinder_support) << "object " << object_support << ", cylinder " << cylinder_support;
+  // Any thread count gives the same support; a reference out of range has none.
+  ThreadPool pool(2);
+  std::vector<int> references = on_object;
+  references.push_back(-1);
+  const std::vector<float> inline_support = PpfReferenceSupport(model, scene, references, options, &executor);
+  EXPECT_EQ(PpfReferenceSupport(model, scene, references, options, &pool), inline_support);
+  EXPECT_EQ(inline_support.back(), 0.0f);
+}
 
 TEST(VotePpfPoses, GivesNothingForAnEmptyScene) {
   const PpfModel model = BuildPpfModel(MakeCube(0.05), 0.17, PpfModelOptions{});

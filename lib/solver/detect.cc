@@ -189,6 +189,61 @@ std::vector<Proposal> PpfProposals(const Frame& frame, const TemplateBank& bank,
   return proposals;
 }
 
+// The shape terms of one object's `trials` (DetectOptions::rank_uncoloured_by_shape): the PPF vote's
+// support of `shape_references` scene points of each depth segment the trials' regions hold,
+// a segment's best, a region's pixel-weighted mean, over the best region's.
+void ShapeTerms(const Frame& frame, const TemplateBank& bank, const cv::Mat& region, const DepthSegmentation& segmentation,
+                const std::vector<Proposal>& proposals, const DetectOptions& options, const PpfSearchOptions& ppf_options,
+                Executor* executor, std::vector<CandidateTrial>* trials) {
+  const PpfModel& model = bank.ppf;
+  PpfSearchOptions search = ppf_options;
+  search.max_scene_points = options.ppf_max_scene_points;
+  const PpfScene scene = MakePpfScene(frame.camera, frame.depth, region, model.step_m, model.options.normal_cluster_deg, search);
+  const size_t segment_count = segmentation.segments.size();
+  std::vector<uint8_t> wanted(segment_count + 1, 0);
+  for (const CandidateTrial& trial : *trials) {
+    for (int label : proposals[static_cast<size_t>(trial.proposal)].segments) wanted[static_cast<size_t>(label)] = 1;
+  }
+  // Each wanted segment's scene points, in the cloud's order; then evenly spaced references.
+  std::vector<std::vector<int>> members(segment_count + 1);
+  for (size_t i = 0; i < scene.points.size(); ++i) {
+    const Eigen::Vector2d uv = frame.camera.Project(scene.points[i].cast<double>());
+    const int u = static_cast<int>(std::floor(uv.x())), v = static_cast<int>(std::floor(uv.y()));
+    if (u < 0 || v < 0 || u >= segmentation.labels.cols || v >= segmentation.labels.rows) continue;
+    const int label = segmentation.labels.at<int>(v, u);
+    if (label > 0 && wanted[static_cast<size_t>(label)]) members[static_cast<size_t>(label)].push_back(static_cast<int>(i));
+  }
+  std::vector<int> references, reference_label;
+  for (size_t label = 1; label <= segment_count; ++label) {
+    const std::vector<int>& m = members[label];
+    const size_t take = std::min(m.size(), static_cast<size_t>(options.shape_references));
+    for (size_t k = 0; k < take; ++k) {
+      references.push_back(m[(2 * k + 1) * m.size() / (2 * take)]);
+      reference_label.push_back(static_cast<int>(label));
+    }
+  }
+  const std::vector<float> support = PpfReferenceSupport(model, scene, references, search, executor);
+  std::vector<double> segment_support(segment_count + 1, -1.0);  // -1 = no reference
+  for (size_t k = 0; k < references.size(); ++k) {
+    double& best = segment_support[static_cast<size_t>(reference_label[k])];
+    best = std::max(best, static_cast<double>(support[k]));
+  }
+  double best_region = 0.0;
+  for (CandidateTrial& trial : *trials) {
+    double sum = 0.0, weight = 0.0;
+    for (int label : proposals[static_cast<size_t>(trial.proposal)].segments) {
+      const double s = segment_support[static_cast<size_t>(label)];
+      if (s < 0.0) continue;
+      const double pixels = segmentation.segments[static_cast<size_t>(label) - 1].pixels;
+      sum += s * pixels;
+      weight += pixels;
+    }
+    trial.shape_term = weight > 0.0 ? sum / weight : 0.0;
+    best_region = std::max(best_region, trial.shape_term);
+  }
+  for (CandidateTrial& trial : *trials) trial.shape_term = best_region > 0.0 ? trial.shape_term / best_region : 0.0;
+}
+
 // The answers kept among `solved`: by S_A, best first, each at most max_score, each object's
 // count respected, and each sharing at most max_overlap of its pixels (corrected mask) with
 // the answers kept before it. *suppressed counts the others.
@@ -211,7 +266,8 @@ std::vector<Detection> SelectAnswers(const Frame& frame, const std::vector<Detec
     const size_t r = static_cast<size_t>(detection.request);
     const bool explains_frame = detection.check.free_space <= options.max_free_space &&
                                 detection.check.contour_support >= options.min_contour_support;
-    if (detection.result.score > options.max_score || answered[r] >= requests[r].count || pixels == 0 ||
+    if (detection.result.score > options.max_score || detection.result.confidence < options.min_confidence ||
+        answered[r] >= requests[r].count || pixels == 0 ||
         overlap > options.max_overlap * pixels || !explains_frame) {
       ++*suppressed;
       continue;
@@ -224,6 +280,18 @@ std::vector<Detection> SelectAnswers(const Frame& frame, const std::vector<Detec
 }
 
 }  // namespace
+
+double DetectionConfidence(const DetectOptions& options, const PoseResult& result, const FrameCheck& check,
+                           double region_iou) {
+  if (!std::isfinite(result.score)) return 0.0;
+  const double logit = options.confidence_bias + options.confidence_score_weight * result.score +
+                       (result.ambiguous ? options.confidence_ambiguous_weight : 0.0) +
+                       options.confidence_on_surface_weight * check.on_surface +
+                       options.confidence_free_space_weight * check.free_space +
+                       options.confidence_contour_weight * check.contour_support +
+                       options.confidence_region_iou_weight * region_iou;
+  return 1.0 / (1.0 + std::exp(-logit));
+}
 
 std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<DetectRequest>& requests,
                                      const SolverOptions& solver_options, const DetectOptions& options,
@@ -304,6 +372,9 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
   std::vector<Detection> solved;
   std::vector<int> wanted(requests.size());
   for (size_t r = 0; r < requests.size(); ++r) wanted[r] = requests[r].count;
+  // Per request, the pixels of the regions solved in earlier passes: a later pass does not
+  // solve the same pixels again (a region nothing was taken from comes back unchanged).
+  std::vector<std::vector<cv::Mat>> solved_regions(requests.size());
   for (int pass = 0; pass <= options.explain_away_passes; ++pass) {
     cv::Mat region = first_region.clone();
     if (pass > 0) {
@@ -392,8 +463,19 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
           trial.size_term = std::min(1.0, proposal.extent_m / d);
           trial.colour_term = has_colour ? Bhattacharyya(model_colour, region_colour(p)) : 0.5;
           trial.rank = (1.0 - options.colour_weight) * trial.size_term + options.colour_weight * trial.colour_term;
-          if (has_near && (proposal.centre_m - requests[r].near_point_m).norm() <= d) trial.rank += 1.0;
           trials.push_back(trial);
+        }
+        if (!has_colour && options.rank_uncoloured_by_shape && solver_options.use_ppf && !bank.ppf.empty() &&
+            !trials.empty()) {
+          const ScopedTimer shape_timer(&out.shape_ms);
+          ShapeTerms(frame, bank, region, segmentation, out.proposals, options, solver_options.ppf, executor, &trials);
+          for (CandidateTrial& trial : trials) {
+            trial.rank = (1.0 - options.colour_weight) * trial.size_term + options.colour_weight * trial.shape_term;
+          }
+        }
+        for (CandidateTrial& trial : trials) {
+          const Proposal& proposal = out.proposals[static_cast<size_t>(trial.proposal)];
+          if (has_near && (proposal.centre_m - requests[r].near_point_m).norm() <= bank.diameter_m) trial.rank += 1.0;
         }
         std::stable_sort(trials.begin(), trials.end(),
                          [](const CandidateTrial& a, const CandidateTrial& b) { return a.rank > b.rank; });
@@ -407,7 +489,18 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
             inside = inside || 2 * SharedPixels(proposal, other, segmentation.segments) > proposal.pixels;
           }
           if (inside) continue;
+          if (pass > 0 && !solved_regions[r].empty()) {
+            const cv::Mat pixels = RegionMask(segmentation.labels, proposal);
+            bool again = false;
+            for (const cv::Mat& before : solved_regions[r]) {
+              again = again || cv::countNonZero(pixels != before) <= proposal.pixels / 20;
+            }
+            if (again) continue;
+          }
           chosen[r].push_back(static_cast<int>(t));
+        }
+        for (int c : chosen[r]) {
+          solved_regions[r].push_back(RegionMask(segmentation.labels, out.proposals[static_cast<size_t>(trials[static_cast<size_t>(c)].proposal)]));
         }
         for (int& c : chosen[r]) c += static_cast<int>(out.trials.size());  // indices into out.trials
         out.trials.insert(out.trials.end(), trials.begin(), trials.end());
@@ -485,6 +578,9 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
         trial.ms = watch.ElapsedMs();
         if (detection.result.success && !detection.result.corrected_mask.empty()) {
           trial.region_iou = MaskIntersectionOverUnion(detection.result.corrected_mask, detection.region);
+        }
+        if (detection.result.success) {
+          detection.result.confidence = DetectionConfidence(options, detection.result, detection.check, trial.region_iou);
         }
         return detection;
       };

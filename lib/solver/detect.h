@@ -61,6 +61,7 @@ struct CandidateTrial {
   int pass = 0;              ///< the pass it was ranked in
   double size_term = 0.0;    ///< extent / diameter, in [0, 1]
   double colour_term = 0.5;  ///< chromaticity agreement in [0, 1] (0.5 = no colour model)
+  double shape_term = 0.5;   ///< PPF support over the best region's, in [0, 1] (0.5 = no PPF model)
   double rank = 0.0;         ///< the ranking score (higher first)
   bool solved = false;
   bool success = false;
@@ -81,6 +82,11 @@ struct FrameCheck {
 /// surface tolerance `surface_m`, outline step `step_m`.
 FrameCheck CheckAgainstFrame(const Frame& frame, const TemplateBank& bank, const Eigen::Isometry3d& cam_from_object,
                              double surface_m, double step_m);
+
+/// The confidence of an answer with `result` (S_A, ambiguous), `check` and `region_iou`
+/// (DetectOptions::confidence_*), in [0, 1].
+double DetectionConfidence(const DetectOptions& options, const PoseResult& result, const FrameCheck& check,
+                           double region_iou);
 
 /// One answer.
 struct Detection {
@@ -115,6 +121,7 @@ struct DetectionReport {
   int answers = 0;                  ///< detections returned
   int suppressed = 0;               ///< solved answers dropped by S_A, the overlap or the count
   int ppf_regions = 0;              ///< regions from the point-pair-feature vote
+  double shape_ms = 0.0;            ///< the shape term's vote (part of rank_ms)
   double support_ms = 0.0, segment_ms = 0.0, propose_ms = 0.0, ppf_ms = 0.0, rank_ms = 0.0, solve_ms = 0.0,
          select_ms = 0.0, total_ms = 0.0;
 };

@@ -1,5 +1,6 @@
 #include "solver/detect_options.h"
 
+#include <cmath>
 #include <sstream>
 
 namespace g6d {
@@ -36,6 +37,13 @@ std::string DetectOptions::Check() const {
   else if (!(max_free_space >= 0.0 && max_free_space <= 1.0)) out << "DetectOptions.max_free_space must be in [0, 1] (got " << max_free_space << ")";
   else if (!(free_space_fraction > 0.0)) out << "DetectOptions.free_space_fraction must be > 0 (got " << free_space_fraction << ")";
   else if (!(min_contour_support >= 0.0 && min_contour_support <= 1.0)) out << "DetectOptions.min_contour_support must be in [0, 1] (got " << min_contour_support << ")";
+  else if (shape_references < 1) out << "DetectOptions.shape_references must be >= 1 (got " << shape_references << ")";
+  else if (!(min_confidence >= 0.0 && min_confidence <= 1.0)) out << "DetectOptions.min_confidence must be in [0, 1] (got " << min_confidence << ")";
+  else if (!(std::isfinite(confidence_bias) && std::isfinite(confidence_score_weight) && std::isfinite(confidence_ambiguous_weight) &&
+             std::isfinite(confidence_on_surface_weight) && std::isfinite(confidence_free_space_weight) &&
+             std::isfinite(confidence_contour_weight) && std::isfinite(confidence_region_iou_weight))) {
+    out << "DetectOptions.confidence_* must be finite";
+  }
   else if (!(ppf_contour_step_m >= 0.0)) out << "DetectOptions.ppf_contour_step_m must be >= 0 (got " << ppf_contour_step_m << ")";
   else if (!(ppf_max_free_space >= 0.0 && ppf_max_free_space <= 1.0)) out << "DetectOptions.ppf_max_free_space must be in [0, 1] (got " << ppf_max_free_space << ")";
   return out.str();

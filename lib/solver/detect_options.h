@@ -58,6 +58,18 @@ struct DetectOptions {
   /// region's pixels and the cache's appearance samples (neutral 0.5 for an uncoloured
   /// model).
   double colour_weight = 0.5;
+  /// Ranking an object without colour (bare metal, an uncoloured CAD model) by its shape:
+  /// the shape term stands in for the colour term (same weight). It is the point-pair-feature
+  /// vote's support of the region (PpfReferenceSupport of `shape_references` points of each
+  /// of its depth segments, the segment's best, the region's pixel-weighted mean over its
+  /// segments) over the best region's for that object: does the depth there look like the
+  /// object, not only fit its size? In a bin the walls' fragments, the floor's speckle and
+  /// the parts all fit a part's size. Objects with colour keep the colour term: on the real
+  /// YCB-V clutter, ranking by shape too put a box's region first for the mustard bottle (the
+  /// vote tells a curved surface from a flat one, not one flat-faced object from another;
+  /// bench/RESULTS.md). Needs the bank's PPF model and SolverOptions::use_ppf (else 0.5).
+  bool rank_uncoloured_by_shape = true;
+  int shape_references = 4;
   /// An object's candidates are solved in rank order until it has `count` answers (not
   /// overlapping) whose confidence (SolverOptions' calibration of S_A) is at least
   /// `accept_confidence` and that explain their region: the mask the answer implies
@@ -120,6 +132,29 @@ struct DetectOptions {
   double max_free_space = 1.0;
   double free_space_fraction = 0.05;
   double min_contour_support = 0.0;
+  /// An answer's confidence (PoseResult::confidence of a Detection): the probability that it
+  /// is right, a logistic in what the answer has, fitted on the answers of every dev set
+  /// without masks, absent objects asked for too (scripts/calibrate_detection.py;
+  /// bench/RESULTS.md, "Detection's confidence"):
+  ///   1 / (1 + exp(-(bias + score · S_A + ambiguous · [ambiguous] + on_surface ·
+  ///   FrameCheck::on_surface + free_space · FrameCheck::free_space + contour ·
+  ///   FrameCheck::contour_support + region_iou · IoU(corrected mask, region)))).
+  /// S_A alone says little here: a pose laid onto the wrong region explains that region;
+  /// the frame around it says more.
+  /// Fitted on 804 answers (synth_dev, LM-O, real YCB-V; leave-one-object-out ECE 0.035,
+  /// answers wrong with confidence >= 0.9: 10, against 68 for the calibration of S_A alone).
+  double confidence_bias = -7.296;
+  double confidence_score_weight = -11.569;
+  double confidence_ambiguous_weight = -2.950;
+  double confidence_on_surface_weight = 6.322;
+  double confidence_free_space_weight = -4.489;
+  double confidence_contour_weight = 3.204;
+  double confidence_region_iou_weight = 5.358;
+  /// An answer less confident than this is no answer: a request for an object that is not
+  /// there gets none (the service's STATUS_NO_SOLUTION). At 0.3 the held-out confidences
+  /// refused 25 of the 35 answers to absent objects on synth_dev and 6 of 582 right answers
+  /// on synth_dev and LM-O (bench/RESULTS.md, "Detection's confidence").
+  double min_confidence = 0.3;
 
   /// Empty when valid, else names the bad field.
   std::string Check() const;

@@ -74,6 +74,64 @@ struct Peak {
   int alpha_bin = 0;
 };
 
+// One reference point's vote: every scene point within the model's reach pairs with scene
+// point `sr`, and each pair's feature votes for (model point, rotation bin) in
+// `accumulator` (model points x alpha bins, cleared first). Adds to *pairs and *votes.
+void AccumulateReference(const PpfModel& model, const PpfScene& scene, const PointGrid& grid, int sr, float spread,
+                         uint32_t max_bucket, std::vector<uint32_t>* accumulator_out, long long* pairs_out,
+                         long long* votes_out) {
+  std::vector<uint32_t>& accumulator = *accumulator_out;
+  long long pairs = 0, votes = 0;
+  const int alpha_bins = model.alpha_bins;
+  const float inverse_step = static_cast<float>(1.0 / model.step_m);
+  const float inverse_angle = static_cast<float>(model.angle_bins / kPi);
+  const float reach = static_cast<float>(model.max_distance_m);
+  const Eigen::Vector3f& p = scene.points[static_cast<size_t>(sr)];
+  const Eigen::Vector3f& n = scene.normals[static_cast<size_t>(sr)];
+  const Eigen::Isometry3f reference_from_cam = PpfReferenceFrame(p, n);
+  std::fill(accumulator.begin(), accumulator.end(), 0u);
+  grid.ForNear(p, [&](int si) {
+    if (si == sr) return;
+    const Eigen::Vector3f& q = scene.points[static_cast<size_t>(si)];
+    const Eigen::Vector4f f = PpfFeature(p, n, q, scene.normals[static_cast<size_t>(si)]);
+    if (f[0] > reach || f[0] * inverse_step < 1.0f) return;  // beyond the model, or closer than a step
+    ++pairs;
+    std::array<int, 2> d_bins, a1_bins, a2_bins, a3_bins;
+    const int nd = SpreadBins(f[0] * inverse_step, model.distance_bins, spread, &d_bins);
+    const int n1 = SpreadBins(f[1] * inverse_angle, model.angle_bins, spread, &a1_bins);
+    const int n2 = SpreadBins(f[2] * inverse_angle, model.angle_bins, spread, &a2_bins);
+    const int n3 = SpreadBins(f[3] * inverse_angle, model.angle_bins, spread, &a3_bins);
+    const int16_t alpha_scene = PpfAngleUnits(PpfAlpha(reference_from_cam * q));
+    for (int i0 = 0; i0 < nd; ++i0) {
+      for (int i1 = 0; i1 < n1; ++i1) {
+        for (int i2 = 0; i2 < n2; ++i2) {
+          for (int i3 = 0; i3 < n3; ++i3) {
+            const int key = model.Key(d_bins[i0], a1_bins[i1], a2_bins[i2], a3_bins[i3]);
+            if (key < 0) continue;
+            const uint32_t begin = model.offsets[static_cast<size_t>(key)];
+            const uint32_t stop = model.offsets[static_cast<size_t>(key) + 1];
+            if (stop - begin > max_bucket) continue;
+            for (uint32_t e = begin; e < stop; ++e) {
+              const PpfEntry& entry = model.entries[e];
+              const uint16_t difference = static_cast<uint16_t>(entry.alpha - alpha_scene);
+              const int bin = static_cast<int>((static_cast<uint32_t>(difference) * static_cast<uint32_t>(alpha_bins)) >> 16);
+              ++accumulator[static_cast<size_t>(entry.reference) * static_cast<size_t>(alpha_bins) + static_cast<size_t>(bin)];
+            }
+            votes += stop - begin;
+          }
+        }
+      }
+    }
+  });
+  *pairs_out += pairs;
+  *votes_out += votes;
+}
+
+// The largest table bucket looked up (PpfSearchOptions::max_bucket_fraction).
+uint32_t MaxBucket(const PpfModel& model, const PpfSearchOptions& options) {
+  return std::max<uint32_t>(1, static_cast<uint32_t>(options.max_bucket_fraction * static_cast<double>(model.entries.size())));
+}
+
 }  // namespace
 
 std::string PpfSearchOptions::Check() const {
@@ -207,12 +265,9 @@ std::vector<PpfPose> VotePpfPoses(const PpfModel& model, const PpfScene& scene, 
   if (model.empty() || model.offsets.empty() || scene_count < 3 || options.max_poses == 0) return poses;
   const int model_count = static_cast<int>(model.points.size());
   const int alpha_bins = model.alpha_bins;
-  const float inverse_step = static_cast<float>(1.0 / model.step_m);
-  const float inverse_angle = static_cast<float>(model.angle_bins / kPi);
   const float reach = static_cast<float>(model.max_distance_m);
   const float spread = static_cast<float>(options.neighbour_spread);
-  const uint32_t max_bucket =
-      std::max<uint32_t>(1, static_cast<uint32_t>(options.max_bucket_fraction * static_cast<double>(model.entries.size())));
+  const uint32_t max_bucket = MaxBucket(model, options);
   const PointGrid grid(scene.points, std::max(reach, 1e-3f));
 
   std::vector<int> references;
@@ -230,43 +285,7 @@ std::vector<PpfPose> VotePpfPoses(const PpfModel& model, const PpfScene& scene, 
     const int end = std::min(static_cast<int>(references.size()), (b + 1) * kBlock);
     for (int k = b * kBlock; k < end; ++k) {
       const int sr = references[static_cast<size_t>(k)];
-      const Eigen::Vector3f& p = scene.points[static_cast<size_t>(sr)];
-      const Eigen::Vector3f& n = scene.normals[static_cast<size_t>(sr)];
-      const Eigen::Isometry3f reference_from_cam = PpfReferenceFrame(p, n);
-      std::fill(accumulator.begin(), accumulator.end(), 0u);
-      grid.ForNear(p, [&](int si) {
-        if (si == sr) return;
-        const Eigen::Vector3f& q = scene.points[static_cast<size_t>(si)];
-        const Eigen::Vector4f f = PpfFeature(p, n, q, scene.normals[static_cast<size_t>(si)]);
-        if (f[0] > reach || f[0] * inverse_step < 1.0f) return;  // beyond the model, or closer than a step
-        ++pairs;
-        std::array<int, 2> d_bins, a1_bins, a2_bins, a3_bins;
-        const int nd = SpreadBins(f[0] * inverse_step, model.distance_bins, spread, &d_bins);
-        const int n1 = SpreadBins(f[1] * inverse_angle, model.angle_bins, spread, &a1_bins);
-        const int n2 = SpreadBins(f[2] * inverse_angle, model.angle_bins, spread, &a2_bins);
-        const int n3 = SpreadBins(f[3] * inverse_angle, model.angle_bins, spread, &a3_bins);
-        const int16_t alpha_scene = PpfAngleUnits(PpfAlpha(reference_from_cam * q));
-        for (int i0 = 0; i0 < nd; ++i0) {
-          for (int i1 = 0; i1 < n1; ++i1) {
-            for (int i2 = 0; i2 < n2; ++i2) {
-              for (int i3 = 0; i3 < n3; ++i3) {
-                const int key = model.Key(d_bins[i0], a1_bins[i1], a2_bins[i2], a3_bins[i3]);
-                if (key < 0) continue;
-                const uint32_t begin = model.offsets[static_cast<size_t>(key)];
-                const uint32_t stop = model.offsets[static_cast<size_t>(key) + 1];
-                if (stop - begin > max_bucket) continue;
-                for (uint32_t e = begin; e < stop; ++e) {
-                  const PpfEntry& entry = model.entries[e];
-                  const uint16_t difference = static_cast<uint16_t>(entry.alpha - alpha_scene);
-                  const int bin = static_cast<int>((static_cast<uint32_t>(difference) * static_cast<uint32_t>(alpha_bins)) >> 16);
-                  ++accumulator[static_cast<size_t>(entry.reference) * static_cast<size_t>(alpha_bins) + static_cast<size_t>(bin)];
-                }
-                votes += stop - begin;
-              }
-            }
-          }
-        }
-      });
+      AccumulateReference(model, scene, grid, sr, spread, max_bucket, &accumulator, &pairs, &votes);
       // The reference's peaks: the best bin, then the next best of other model points.
       std::vector<Peak> peaks;
       for (int taken = 0; taken < options.peaks_per_reference; ++taken) {
@@ -348,6 +367,30 @@ std::vector<PpfPose> VotePpfPoses(const PpfModel& model, const PpfScene& scene, 
   }
   r.ms = watch.ElapsedMs();
   return poses;
+}
+
+std::vector<float> PpfReferenceSupport(const PpfModel& model, const PpfScene& scene, const std::vector<int>& references,
+                                       const PpfSearchOptions& options, Executor* executor) {
+  std::vector<float> support(references.size(), 0.0f);
+  if (model.empty() || model.offsets.empty() || scene.points.size() < 3) return support;
+  const size_t bins = model.points.size() * static_cast<size_t>(model.alpha_bins);
+  const uint32_t max_bucket = MaxBucket(model, options);
+  const PointGrid grid(scene.points, std::max(static_cast<float>(model.max_distance_m), 1e-3f));
+  constexpr int kBlock = 8;
+  const int blocks = (static_cast<int>(references.size()) + kBlock - 1) / kBlock;
+  executor->ParallelFor(blocks, [&](int b) {
+    std::vector<uint32_t> accumulator(bins);
+    long long pairs = 0, votes = 0;
+    const int end = std::min(static_cast<int>(references.size()), (b + 1) * kBlock);
+    for (int k = b * kBlock; k < end; ++k) {
+      const int sr = references[static_cast<size_t>(k)];
+      if (sr < 0 || sr >= static_cast<int>(scene.points.size())) continue;
+      AccumulateReference(model, scene, grid, sr, static_cast<float>(options.neighbour_spread), max_bucket, &accumulator,
+                          &pairs, &votes);
+      support[static_cast<size_t>(k)] = static_cast<float>(*std::max_element(accumulator.begin(), accumulator.end()));
+    }
+  });
+  return support;
 }
 
 }  // namespace g6d

@@ -95,4 +95,15 @@ struct PpfReport {
 std::vector<PpfPose> VotePpfPoses(const PpfModel& model, const PpfScene& scene, double diameter_m,
                                   const PpfSearchOptions& options, Executor* executor, PpfReport* report);
 
+/// How well the scene around each of `references` (indices into `scene`; out of range = 0)
+/// agrees with one pose of the model through it: the votes of the reference's best (model
+/// point, rotation) bin. A point on the object gathers the votes of the object's other
+/// points; a point on a surface of another shape, or on a fragment of a few points, gathers
+/// few. (A plane looks like any flat face of the model, locally: the votes do not tell a
+/// wall from a box's face; peak² / pairs, which would, ranked worse on synth_dev.)
+/// Detection ranks its depth regions by it (DetectOptions::rank_uncoloured_by_shape). Same result on
+/// any executor.
+std::vector<float> PpfReferenceSupport(const PpfModel& model, const PpfScene& scene, const std::vector<int>& references,
+                                       const PpfSearchOptions& options, Executor* executor);
+
 }  // namespace g6d

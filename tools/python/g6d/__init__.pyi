@@ -253,6 +253,8 @@ class DetectOptions(_Options):
     min_area_fraction: float
     extra_candidates: int
     colour_weight: float
+    rank_uncoloured_by_shape: bool
+    shape_references: int
     accept_confidence: float
     accept_region_iou: float
     fill_gap_px: int
@@ -269,6 +271,14 @@ class DetectOptions(_Options):
     max_free_space: float
     free_space_fraction: float
     min_contour_support: float
+    confidence_bias: float
+    confidence_score_weight: float
+    confidence_ambiguous_weight: float
+    confidence_on_surface_weight: float
+    confidence_free_space_weight: float
+    confidence_contour_weight: float
+    confidence_region_iou_weight: float
+    min_confidence: float
 
 class ViewSamplingOptions(_Options):
     num_directions: int

@@ -1,0 +1,87 @@
+#!/usr/bin/env python3
+"""Fits the confidence of detection answers (no mask: DetectObjects) on the per-answer records
+of g6d-bench-dataset --masks none --records FILE.csv of several datasets: P(answer right) as
+a logistic in what the answer already has,
+
+    S_A, ambiguous, on_surface, free_space, contour_support (its frame check, FrameCheck),
+    region_iou (its corrected mask against the region solved),
+
+Answers for absent objects (--absent-requests) are wrong answers. Measured honestly:
+leave-one-dataset-out (fit on the others, measured on the held-out one) and leave-one-object-
+out, with the reliability table, ECE, Brier and answers with confidence >= 0.9 that are wrong,
+beside the confidence the answers had (the solver's calibration of S_A alone). Prints the
+weights for DetectOptions' confidence_* fields (same order as FEATURES). (The records'
+runner_up_margin is kept for analysis; with several instances of one object it measures
+another instance, not a rival, and is not a feature.)
+
+    python3 scripts/calibrate_detection.py synth_dev=out/geometry/new/synth_dev_none.records.csv \\
+        lmo=out/geometry/new/lmo_none.records.csv ycbv_real=... ycbv_clutter=...
+"""
+import csv
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from calibrate_confidence import fit, predict, report  # noqa: E402
+
+FEATURES = ["bias", "score", "ambiguous", "on_surface", "free_space", "contour_support", "region_iou"]
+
+
+def features(r):
+    return [1.0, r["score"], r["ambiguous"], r["on_surface"], r["free_space"], r["contour_support"], r["region_iou"]]
+
+
+def load(path):
+    rows = []
+    with open(path) as f:
+        for r in csv.DictReader(f):
+            if None in r.values():
+                continue  # a file still being written
+            row = {k: float(r[k]) for k in FEATURES[1:]}
+            row.update(y=int(r["correct"]), obj=int(r["obj_id"]), absent=int(r["absent"]),
+                       had=float(r["confidence"]))
+            rows.append(row)
+    if not rows:
+        sys.exit(f"{path}: no answers")
+    return rows
+
+
+def main():
+    if len(sys.argv) < 2 or any("=" not in a for a in sys.argv[1:]):
+        sys.exit(__doc__)
+    datasets = {name: load(path) for name, path in (a.split("=", 1) for a in sys.argv[1:])}
+    everything = [r for rows in datasets.values() for r in rows]
+    w = fit(everything, features=features)
+    print(f"fit on all {len(everything)} answers of {', '.join(datasets)}:")
+    print("  " + ", ".join(f"confidence_{name}{'' if name == 'bias' else '_weight'} = {x:.3f}" for name, x in zip(FEATURES, w)))
+    for name, rows in datasets.items():
+        report(rows, lambda r: r["had"], f"{name}, the confidence the answers had")
+        if len(datasets) > 1:
+            held = fit([r for other, o in datasets.items() if other != name for r in o], features=features)
+            report(rows, lambda r, held=held: predict(held, r, features=features), f"{name}, held out (fit on the other datasets)")
+    groups = sorted({(name, r["obj"]) for name, rows in datasets.items() for r in rows})
+    held_out = {}
+    for group in groups:
+        weights = fit([r for name, rows in datasets.items() for r in rows if (name, r["obj"]) != group], features=features)
+        for r in datasets[group[0]]:
+            if r["obj"] == group[1]:
+                held_out[id(r)] = predict(weights, r, features=features)
+    print(f"\nleave-one-object-out ({len(groups)} objects over {len(datasets)} datasets):")
+    for name, rows in datasets.items():
+        report(rows, lambda r: held_out[id(r)], f"{name}, leave-one-object-out")
+    report(everything, lambda r: held_out[id(r)], "all datasets, leave-one-object-out")
+    # DetectOptions::min_confidence: what a floor on the (held-out) confidence keeps.
+    print("\nmin_confidence (leave-one-object-out confidences): answers refused, per dataset")
+    print("| dataset | floor | right refused | wrong refused (present) | absent answered of | absent refused |")
+    print("|---|---|---|---|---|---|")
+    for name, rows in datasets.items():
+        for floor in (0.05, 0.1, 0.2, 0.3, 0.5):
+            right = sum(1 for r in rows if r["y"] == 1 and held_out[id(r)] < floor)
+            wrong = sum(1 for r in rows if r["y"] == 0 and not r["absent"] and held_out[id(r)] < floor)
+            absent = [r for r in rows if r["absent"]]
+            refused = sum(1 for r in absent if held_out[id(r)] < floor)
+            print(f"| {name} | {floor} | {right} of {sum(r['y'] for r in rows)} | {wrong} | {len(absent)} | {refused} |")
+
+
+if __name__ == "__main__":
+    main()
