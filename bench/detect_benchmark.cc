@@ -20,6 +20,7 @@
 #include "eval/bop_csv.h"
 #include "eval/bop_eval.h"
 #include "eval/metrics.h"
+#include "solver/proposals.h"
 
 namespace g6d::bench {
 namespace {
@@ -27,16 +28,7 @@ namespace {
 // The full-frame pixels of a region (its segments in its pass's labels, or its own mask).
 cv::Mat ProposalPixels(const DetectionReport& report, const Proposal& proposal) {
   if (!proposal.mask.empty()) return proposal.mask;
-  const cv::Mat& labels = report.passes[static_cast<size_t>(proposal.pass)].segmentation.labels;
-  cv::Mat mask = cv::Mat::zeros(labels.size(), CV_8U);
-  for (int v = proposal.box.y; v < proposal.box.y + proposal.box.height; ++v) {
-    const int* l = labels.ptr<int>(v);
-    uint8_t* m = mask.ptr<uint8_t>(v);
-    for (int u = proposal.box.x; u < proposal.box.x + proposal.box.width; ++u) {
-      if (l[u] > 0 && std::binary_search(proposal.segments.begin(), proposal.segments.end(), l[u])) m[u] = 255;
-    }
-  }
-  return mask;
+  return RegionMask(report.passes[static_cast<size_t>(proposal.pass)].segmentation.labels, proposal);
 }
 
 double Iou(const cv::Mat& a, const cv::Mat& b) {

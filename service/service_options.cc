@@ -243,7 +243,9 @@ void ParseServiceOptionsYaml(const std::string& text, const std::string& name,
                          {"max_score", double_field(&o.detect.max_score)},
                          {"explain_away_passes", int_field(&o.detect.explain_away_passes)},
                          {"max_planes", int_field(&o.detect.max_planes)},
-                         {"support_extent_factor", double_field(&o.detect.support_extent_factor)}});
+                         {"support_extent_factor", double_field(&o.detect.support_extent_factor)},
+                         {"min_confidence", double_field(&o.detect.min_confidence)},
+                         {"rank_uncoloured_by_shape", bool_field(&o.detect.rank_uncoloured_by_shape)}});
              }}});
 }
 
