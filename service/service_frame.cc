@@ -499,7 +499,8 @@ void Service::ProcessJob(const Job& job) {
     std::ostringstream message;
     message << name << ": not found without a mask: " << report.proposals.size()
             << " regions proposed, " << tried << " ranked for it, " << solved_here
-            << " solved, none acceptable (S_A <= " << options_.detect.max_score << ")";
+            << " solved, none acceptable (S_A <= " << options_.detect.max_score << ", confidence >= "
+            << options_.detect.min_confidence << ")";
     if (!report.success) message << "; detection: " << report.message;
     pose_estimate_t none =
         MakeFailedEstimate(request, pose_estimate_t::STATUS_NO_SOLUTION, message.str());
