@@ -241,6 +241,17 @@ int main(int argc, char** argv) {
   app.add_option("--detect-shape-references", detect_options.shape_references,
                  "--masks none: PPF reference points per depth segment for the shape term")
       ->capture_default_str();
+  app.add_option("--detect-raised-sigmas", detect_options.raised_sigmas,
+                 "--masks none: support pixels standing this many sigmas of the smoothed height above the support's "
+                 "level are depth to segment (thin parts lying flat; 0 = off)")
+      ->capture_default_str();
+  app.add_option("--detect-raised-flatness", detect_options.raised_flatness,
+                 "--masks none: a raised part's heights may spread this many times the support's")
+      ->capture_default_str();
+  app.add_option("--detect-island-open", detect_options.island_open_px,
+                 "--masks none: islands (connected parts of the frame less its support, opened by this many pixels) "
+                 "are candidate regions too (-1 = none)")
+      ->capture_default_str();
   app.add_option("--detect-min-confidence", detect_options.min_confidence,
                  "--masks none: an answer less confident than this is no answer")
       ->capture_default_str();

@@ -220,11 +220,30 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
         const double has_depth = static_cast<double>(depth_pixels) / std::max(1, cv::countNonZero(visible));
         double formed = 0.0, ranked = 0.0, solved = 0.0;
         for (size_t p = 0; p < pixels.size(); ++p) formed = std::max(formed, Iou(pixels[p], visible));
-        for (const CandidateTrial& trial : report.trials) {
+        // The best-holding ranked region's place among its pass's candidates for the object.
+        int place = -1, of = 0;
+        const CandidateTrial* holder = nullptr;
+        for (size_t t = 0; t < report.trials.size(); ++t) {
+          const CandidateTrial& trial = report.trials[t];
           if (trial.request != r) continue;
           const double iou = Iou(pixels[static_cast<size_t>(trial.proposal)], visible);
-          ranked = std::max(ranked, iou);
+          if (iou > ranked) {
+            ranked = iou;
+            holder = &trial;
+            place = 0;
+            of = 0;
+            for (const CandidateTrial& other : report.trials) {
+              if (other.request != r || other.pass != trial.pass) continue;
+              ++of;
+              if (other.rank > trial.rank) ++place;
+            }
+          }
           if (trial.solved) solved = std::max(solved, iou);
+        }
+        if (holder != nullptr && holder->solved == false && ranked >= 0.5) {
+          std::fprintf(stderr, "      holder: place %d of %d (rank %.3f: size %.2f colour %.2f shape %.2f; %s)\n", place + 1, of,
+                       holder->rank, holder->size_term, holder->colour_term, holder->shape_term,
+                       report.proposals[static_cast<size_t>(holder->proposal)].mask.empty() ? "segments" : "own mask");
         }
         const BenchObject& object = objects.at(gt.obj_id);
         bool correct = false;

@@ -244,6 +244,8 @@ void ParseServiceOptionsYaml(const std::string& text, const std::string& name,
                          {"explain_away_passes", int_field(&o.detect.explain_away_passes)},
                          {"max_planes", int_field(&o.detect.max_planes)},
                          {"support_extent_factor", double_field(&o.detect.support_extent_factor)},
+                         {"raised_sigmas", double_field(&o.detect.raised_sigmas)},
+                         {"island_open_px", int_field(&o.detect.island_open_px)},
                          {"min_confidence", double_field(&o.detect.min_confidence)},
                          {"rank_uncoloured_by_shape", bool_field(&o.detect.rank_uncoloured_by_shape)}});
              }}});

@@ -200,36 +200,52 @@ void ShapeTerms(const Frame& frame, const TemplateBank& bank, const cv::Mat& reg
   search.max_scene_points = options.ppf_max_scene_points;
   const PpfScene scene = MakePpfScene(frame.camera, frame.depth, region, model.step_m, model.options.normal_cluster_deg, search);
   const size_t segment_count = segmentation.segments.size();
+  // Units: the segments (1..segment_count), then the regions with their own mask (islands).
   std::vector<uint8_t> wanted(segment_count + 1, 0);
-  for (const CandidateTrial& trial : *trials) {
-    for (int label : proposals[static_cast<size_t>(trial.proposal)].segments) wanted[static_cast<size_t>(label)] = 1;
+  std::vector<size_t> masked;  // trials whose region has its own mask; unit segment_count + 1 + k
+  for (size_t t = 0; t < trials->size(); ++t) {
+    const Proposal& proposal = proposals[static_cast<size_t>((*trials)[t].proposal)];
+    if (!proposal.mask.empty()) masked.push_back(t);
+    for (int label : proposal.segments) wanted[static_cast<size_t>(label)] = 1;
   }
-  // Each wanted segment's scene points, in the cloud's order; then evenly spaced references.
-  std::vector<std::vector<int>> members(segment_count + 1);
+  // Each wanted unit's scene points, in the cloud's order; then evenly spaced references.
+  std::vector<std::vector<int>> members(segment_count + 1 + masked.size());
   for (size_t i = 0; i < scene.points.size(); ++i) {
     const Eigen::Vector2d uv = frame.camera.Project(scene.points[i].cast<double>());
     const int u = static_cast<int>(std::floor(uv.x())), v = static_cast<int>(std::floor(uv.y()));
     if (u < 0 || v < 0 || u >= segmentation.labels.cols || v >= segmentation.labels.rows) continue;
     const int label = segmentation.labels.at<int>(v, u);
     if (label > 0 && wanted[static_cast<size_t>(label)]) members[static_cast<size_t>(label)].push_back(static_cast<int>(i));
+    for (size_t k = 0; k < masked.size(); ++k) {
+      const cv::Mat& mask = proposals[static_cast<size_t>((*trials)[masked[k]].proposal)].mask;
+      if (mask.at<uint8_t>(v, u)) members[segment_count + 1 + k].push_back(static_cast<int>(i));
+    }
   }
-  std::vector<int> references, reference_label;
-  for (size_t label = 1; label <= segment_count; ++label) {
-    const std::vector<int>& m = members[label];
+  std::vector<int> references, reference_unit;
+  for (size_t unit = 1; unit < members.size(); ++unit) {
+    const std::vector<int>& m = members[unit];
     const size_t take = std::min(m.size(), static_cast<size_t>(options.shape_references));
     for (size_t k = 0; k < take; ++k) {
       references.push_back(m[(2 * k + 1) * m.size() / (2 * take)]);
-      reference_label.push_back(static_cast<int>(label));
+      reference_unit.push_back(static_cast<int>(unit));
     }
   }
   const std::vector<float> support = PpfReferenceSupport(model, scene, references, search, executor);
-  std::vector<double> segment_support(segment_count + 1, -1.0);  // -1 = no reference
+  std::vector<double> unit_support(members.size(), -1.0);  // -1 = no reference
   for (size_t k = 0; k < references.size(); ++k) {
-    double& best = segment_support[static_cast<size_t>(reference_label[k])];
+    double& best = unit_support[static_cast<size_t>(reference_unit[k])];
     best = std::max(best, static_cast<double>(support[k]));
+  }
+  const std::vector<double>& segment_support = unit_support;
+  for (size_t k = 0; k < masked.size(); ++k) {
+    (*trials)[masked[k]].shape_term = std::max(0.0, unit_support[segment_count + 1 + k]);
   }
   double best_region = 0.0;
   for (CandidateTrial& trial : *trials) {
+    if (!proposals[static_cast<size_t>(trial.proposal)].mask.empty()) {
+      best_region = std::max(best_region, trial.shape_term);
+      continue;
+    }
     double sum = 0.0, weight = 0.0;
     for (int label : proposals[static_cast<size_t>(trial.proposal)].segments) {
       const double s = segment_support[static_cast<size_t>(label)];
@@ -407,6 +423,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
       const double largest_extent_m = largest_diameter_m + allowance_m(farthest);
       std::vector<Proposal> proposals = FormRegions(
           segmentation, NeighbourSegments(segmentation.labels, options.neighbour_gap_px), largest_extent_m, options);
+      for (Proposal& proposal : FormIslands(frame, region, largest_extent_m, options)) proposals.push_back(std::move(proposal));
       for (Proposal& proposal : proposals) proposal.pass = pass;
       out.proposals.insert(out.proposals.end(), proposals.begin(), proposals.end());
     }
@@ -426,9 +443,13 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
         const Proposal& proposal = out.proposals[index];
         for (int v = proposal.box.y; v < proposal.box.y + proposal.box.height; v += 2) {
           const int* l = segmentation.labels.ptr<int>(v);
+          const uint8_t* m = proposal.mask.empty() ? nullptr : proposal.mask.ptr<uint8_t>(v);
           const cv::Vec3b* rgb = frame.rgb.ptr<cv::Vec3b>(v);
           for (int u = proposal.box.x; u < proposal.box.x + proposal.box.width; u += 2) {
-            if (l[u] <= 0 || !std::binary_search(proposal.segments.begin(), proposal.segments.end(), l[u])) continue;
+            if (m != nullptr ? !m[u]
+                             : (l[u] <= 0 || !std::binary_search(proposal.segments.begin(), proposal.segments.end(), l[u]))) {
+              continue;
+            }
             AddColour(rgb[u][0] / 255.0, rgb[u][1] / 255.0, rgb[u][2] / 255.0, &histogram, &total);
           }
         }
@@ -447,6 +468,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
         std::vector<CandidateTrial> trials;
         for (size_t p = first_proposal; p < out.proposals.size(); ++p) {
           const Proposal& proposal = out.proposals[p];
+          if (!proposal.mask.empty() && !requests[r].within.empty()) continue;  // islands: over the frame only
           const double d = bank.diameter_m;
           if (proposal.extent_m > d + allowance_m(proposal.depth_m)) continue;
           if (proposal.extent_m < options.min_extent_fraction * d) continue;
@@ -486,7 +508,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
           bool inside = false;
           for (int c : chosen[r]) {
             const Proposal& other = out.proposals[static_cast<size_t>(trials[static_cast<size_t>(c)].proposal)];
-            inside = inside || 2 * SharedPixels(proposal, other, segmentation.segments) > proposal.pixels;
+            inside = inside || 2 * SharedPixels(proposal, other, segmentation, frame.depth) > proposal.pixels;
           }
           if (inside) continue;
           if (pass > 0 && !solved_regions[r].empty()) {

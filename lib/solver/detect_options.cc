@@ -15,6 +15,12 @@ std::string DetectOptions::Check() const {
   else if (!(plane_flatness_m >= 0.0 && plane_flatness_m < 0.1)) out << "DetectOptions.plane_flatness_m must be in [0, 0.1) m (got " << plane_flatness_m << ")";
   else if (!(min_plane_fraction > 0.0 && min_plane_fraction <= 1.0)) out << "DetectOptions.min_plane_fraction must be in (0, 1] (got " << min_plane_fraction << ")";
   else if (!(support_extent_factor >= 1.0)) out << "DetectOptions.support_extent_factor must be >= 1 (got " << support_extent_factor << ")";
+  else if (!(raised_sigmas >= 0.0)) out << "DetectOptions.raised_sigmas must be >= 0 (0 = off; got " << raised_sigmas << ")";
+  else if (raised_window_px < 1 || raised_window_px % 2 == 0) out << "DetectOptions.raised_window_px must be odd and >= 1 (got " << raised_window_px << ")";
+  else if (raised_level_px < raised_window_px || raised_level_px % 2 == 0) out << "DetectOptions.raised_level_px must be odd and >= raised_window_px (got " << raised_level_px << ")";
+  else if (!(raised_flatness > 0.0)) out << "DetectOptions.raised_flatness must be > 0 (got " << raised_flatness << ")";
+  else if (!(raised_min_height_m >= 0.0 && raised_min_height_m < 0.1)) out << "DetectOptions.raised_min_height_m must be in [0, 0.1) m (got " << raised_min_height_m << ")";
+  else if (island_open_px < -1 || island_open_px > 10) out << "DetectOptions.island_open_px must be in [-1, 10] (-1 = no islands; got " << island_open_px << ")";
   else if (neighbour_gap_px < 1) out << "DetectOptions.neighbour_gap_px must be >= 1 (got " << neighbour_gap_px << ")";
   else if (max_union_segments < 1) out << "DetectOptions.max_union_segments must be >= 1 (got " << max_union_segments << ")";
   else if (max_regions < 1) out << "DetectOptions.max_regions must be >= 1 (got " << max_regions << ")";

@@ -47,6 +47,108 @@ double PointsExtent(const std::vector<Eigen::Vector3d>& points) {
   return points.empty() ? 0.0 : spans.Extent();
 }
 
+// The average of `values` over window x window squares, counting only the pixels where
+// `weights` is 1 (`values` is 0 elsewhere); 0 where the square holds none.
+cv::Mat WeightedAverage(const cv::Mat& values, const cv::Mat& weights, int window) {
+  cv::Mat sum, count;
+  cv::boxFilter(values, sum, CV_32F, cv::Size(window, window), cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
+  cv::boxFilter(weights, count, CV_32F, cv::Size(window, window), cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
+  cv::Mat average = cv::Mat::zeros(values.size(), CV_32F);
+  for (int v = 0; v < values.rows; ++v) {
+    const float* s = sum.ptr<float>(v);
+    const float* c = count.ptr<float>(v);
+    float* a = average.ptr<float>(v);
+    for (int u = 0; u < values.cols; ++u) a[u] = c[u] > 0.5f ? s[u] / c[u] : 0.0f;
+  }
+  return average;
+}
+
+// The pixels of a plane's support (`on_support`, CV_8U 0/255) that stand above its local
+// level (DetectOptions::raised_*): thin parts lying flat on it. CV_8U 0/255.
+cv::Mat RaisedPixels(const Frame& frame, const Plane& plane, const cv::Mat& on_support, const DetectOptions& options) {
+  const cv::Mat& depth = frame.depth;
+  // Height towards the camera (the side of the plane the camera is on).
+  const float toward = plane.Distance(Eigen::Vector3d::Zero()) >= 0.0 ? 1.0f : -1.0f;
+  cv::Mat height = cv::Mat::zeros(depth.size(), CV_32F), weight = cv::Mat::zeros(depth.size(), CV_32F);
+  for (int v = 0; v < depth.rows; ++v) {
+    const uint8_t* o = on_support.ptr<uint8_t>(v);
+    const float* d = depth.ptr<float>(v);
+    float* h = height.ptr<float>(v);
+    float* w = weight.ptr<float>(v);
+    for (int u = 0; u < depth.cols; ++u) {
+      if (!o[u]) continue;
+      h[u] = toward * static_cast<float>(plane.Distance(frame.camera.Backproject(PixelCentre(u, v), d[u])));
+      w[u] = 1.0f;
+    }
+  }
+  const cv::Mat smooth = WeightedAverage(height, weight, options.raised_window_px);
+  cv::Mat raised = cv::Mat::zeros(depth.size(), CV_8U);
+  // Twice: the second level leaves out what the first found raised (a large part lifts the
+  // level under it).
+  for (int pass = 0; pass < 2; ++pass) {
+    cv::Mat level_weight = weight.clone();
+    level_weight.setTo(0.0f, raised);
+    cv::Mat level_height = height.clone();
+    level_height.setTo(0.0f, raised);
+    const cv::Mat level = WeightedAverage(level_height, level_weight, options.raised_level_px);
+    const cv::Mat excess = smooth - level;
+    std::vector<float> spread;
+    for (int v = 0; v < depth.rows; v += 2) {
+      const uint8_t* o = on_support.ptr<uint8_t>(v);
+      const float* e = excess.ptr<float>(v);
+      for (int u = 0; u < depth.cols; u += 2) {
+        if (o[u]) spread.push_back(std::abs(e[u]));
+      }
+    }
+    if (spread.empty()) return raised;
+    std::nth_element(spread.begin(), spread.begin() + static_cast<std::ptrdiff_t>(spread.size() / 2), spread.end());
+    const double sigma = 1.4826 * spread[spread.size() / 2];
+    const float threshold = static_cast<float>(std::max(options.raised_sigmas * sigma, options.raised_min_height_m));
+    raised = (excess > threshold) & on_support;
+  }
+  // Only connected parts the size of a segment (the noise leaves specks) that are flat: a
+  // part lying on the support is level, its heights spread like the support's own; a real
+  // sensor's depth smeared up towards an object's foot is a ramp.
+  cv::Mat parts, stats, centroids;
+  const int count = cv::connectedComponentsWithStats(raised, parts, stats, centroids, 8, CV_32S);
+  if (count <= 1) return raised;
+  auto robust_sigma = [](std::vector<float>* values) {
+    if (values->empty()) return 0.0;
+    const auto middle = values->begin() + static_cast<std::ptrdiff_t>(values->size() / 2);
+    std::nth_element(values->begin(), middle, values->end());
+    const float median = *middle;
+    for (float& x : *values) x = std::abs(x - median);
+    std::nth_element(values->begin(), middle, values->end());
+    return 1.4826 * *middle;
+  };
+  std::vector<std::vector<float>> part_heights(static_cast<size_t>(count));
+  std::vector<float> support_heights;
+  for (int v = 0; v < depth.rows; ++v) {
+    const int* l = parts.ptr<int>(v);
+    const uint8_t* o = on_support.ptr<uint8_t>(v);
+    const float* h = height.ptr<float>(v);
+    for (int u = 0; u < depth.cols; ++u) {
+      if (l[u] > 0) part_heights[static_cast<size_t>(l[u])].push_back(h[u]);
+      else if (o[u] && (u + v) % 4 == 0) support_heights.push_back(h[u]);
+    }
+  }
+  const double support_sigma = robust_sigma(&support_heights);
+  std::vector<uint8_t> keep(static_cast<size_t>(count), 0);
+  for (int k = 1; k < count; ++k) {
+    std::vector<float>& heights = part_heights[static_cast<size_t>(k)];
+    keep[static_cast<size_t>(k)] = static_cast<int>(heights.size()) >= options.segments.min_segment_pixels &&
+                                   robust_sigma(&heights) <= options.raised_flatness * support_sigma;
+  }
+  for (int v = 0; v < depth.rows; ++v) {
+    const int* l = parts.ptr<int>(v);
+    uint8_t* r = raised.ptr<uint8_t>(v);
+    for (int u = 0; u < depth.cols; ++u) {
+      if (l[u] > 0 && !keep[static_cast<size_t>(l[u])]) r[u] = 0;
+    }
+  }
+  return raised;
+}
+
 }  // namespace
 
 int FindSupport(const Frame& frame, const DetectOptions& options, double largest_diameter_m, cv::Mat* support) {
@@ -121,13 +223,16 @@ int FindSupport(const Frame& frame, const DetectOptions& options, double largest
     }
     if (!any) break;  // the best plane is an object's face, or small: no support left
     ++planes;
+    cv::Mat on_support = cv::Mat::zeros(depth.size(), CV_8U);
     for (int v = 0; v < depth.rows; ++v) {
       const int* l = parts.ptr<int>(v);
-      uint8_t* s = support->ptr<uint8_t>(v);
+      uint8_t* s = on_support.ptr<uint8_t>(v);
       for (int u = 0; u < depth.cols; ++u) {
         if (l[u] > 0 && is_support[static_cast<size_t>(l[u])]) s[u] = 255;
       }
     }
+    if (options.raised_sigmas > 0.0) on_support.setTo(0, RaisedPixels(frame, plane, on_support, options));
+    *support |= on_support;
     std::vector<Eigen::Vector3d> left;
     std::vector<cv::Point> left_pixels;
     for (size_t i = 0; i < samples.size(); ++i) {
@@ -174,6 +279,7 @@ std::set<std::pair<int, int>> NeighbourSegments(const cv::Mat& labels, int gap_p
 }
 
 cv::Mat RegionMask(const cv::Mat& labels, const Proposal& proposal) {
+  if (!proposal.mask.empty()) return proposal.mask;
   cv::Mat mask = cv::Mat::zeros(labels.size(), CV_8U);
   for (int v = proposal.box.y; v < proposal.box.y + proposal.box.height; ++v) {
     const int* l = labels.ptr<int>(v);
@@ -206,6 +312,7 @@ cv::Mat FilledRegionMask(const cv::Mat& labels, const cv::Mat& support, const Pr
 }
 
 int PixelsInside(const cv::Mat& labels, const Proposal& proposal, const cv::Mat& within) {
+  if (!proposal.mask.empty()) return cv::countNonZero(proposal.mask & within);
   int inside = 0;
   for (int v = proposal.box.y; v < proposal.box.y + proposal.box.height; ++v) {
     const int* l = labels.ptr<int>(v);
@@ -217,12 +324,68 @@ int PixelsInside(const cv::Mat& labels, const Proposal& proposal, const cv::Mat&
   return inside;
 }
 
-int SharedPixels(const Proposal& a, const Proposal& b, const std::vector<DepthSegment>& segments) {
+int SharedPixels(const Proposal& a, const Proposal& b, const DepthSegmentation& segmentation, const cv::Mat& depth) {
+  if (!a.mask.empty() || !b.mask.empty()) {
+    const cv::Mat a_pixels = RegionMask(segmentation.labels, a), b_pixels = RegionMask(segmentation.labels, b);
+    const cv::Rect box = a.box & b.box;
+    int shared = 0;
+    for (int v = box.y; v < box.y + box.height; ++v) {
+      const uint8_t* pa = a_pixels.ptr<uint8_t>(v);
+      const uint8_t* pb = b_pixels.ptr<uint8_t>(v);
+      const float* d = depth.ptr<float>(v);
+      for (int u = box.x; u < box.x + box.width; ++u) shared += pa[u] && pb[u] && ValidDepth(d[u]);
+    }
+    return shared;
+  }
+  const std::vector<DepthSegment>& segments = segmentation.segments;
   int shared = 0;
   for (int s : a.segments) {
     if (std::binary_search(b.segments.begin(), b.segments.end(), s)) shared += segments[static_cast<size_t>(s - 1)].pixels;
   }
   return shared;
+}
+
+std::vector<Proposal> FormIslands(const Frame& frame, const cv::Mat& region, double largest_extent_m,
+                                  const DetectOptions& options) {
+  std::vector<Proposal> islands;
+  if (options.island_open_px < 0) return islands;
+  cv::Mat opened;
+  const int side = 2 * options.island_open_px + 1;
+  cv::morphologyEx(region > 0, opened, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(side, side)));
+  cv::Mat parts, stats, centroids;
+  const int count = cv::connectedComponentsWithStats(opened, parts, stats, centroids, 8, CV_32S);
+  if (count <= 1) return islands;
+  // Their pixels with depth, labelled as segments.
+  cv::Mat labels = cv::Mat::zeros(parts.size(), CV_32S);
+  for (int v = 0; v < parts.rows; ++v) {
+    const int* p = parts.ptr<int>(v);
+    const float* d = frame.depth.ptr<float>(v);
+    int* l = labels.ptr<int>(v);
+    for (int u = 0; u < parts.cols; ++u) {
+      if (p[u] > 0 && ValidDepth(d[u])) l[u] = p[u];
+    }
+  }
+  const std::vector<DepthSegment> statistics = SegmentStatistics(frame.camera, frame.depth, labels, count - 1);
+  const double focal = std::min(frame.camera.fx, frame.camera.fy);
+  for (int k = 1; k < count; ++k) {
+    const DepthSegment& island = statistics[static_cast<size_t>(k - 1)];
+    if (island.pixels < options.segments.min_segment_pixels) continue;
+    if (island.spans.Extent() > largest_extent_m) continue;
+    const cv::Rect box(stats.at<int>(k, cv::CC_STAT_LEFT), stats.at<int>(k, cv::CC_STAT_TOP),
+                       stats.at<int>(k, cv::CC_STAT_WIDTH), stats.at<int>(k, cv::CC_STAT_HEIGHT));
+    if (std::max(box.width, box.height) * island.median_depth_m / focal > largest_extent_m) continue;
+    Proposal proposal;
+    proposal.box = box;
+    proposal.pixels = island.pixels;
+    proposal.depth_m = island.median_depth_m;
+    proposal.extent_m = island.spans.Extent();
+    for (int axis = 0; axis < 3; ++axis) {
+      proposal.centre_m[axis] = 0.5 * (island.spans.low[static_cast<size_t>(axis)] + island.spans.high[static_cast<size_t>(axis)]);
+    }
+    proposal.mask = parts == k;
+    islands.push_back(std::move(proposal));
+  }
+  return islands;
 }
 
 std::vector<Proposal> FormRegions(const DepthSegmentation& segmentation, const std::set<std::pair<int, int>>& neighbours,

@@ -43,7 +43,7 @@ int FindSupport(const Frame& frame, const DetectOptions& options, double largest
 /// Pairs of segments (1-based labels, a < b) with pixels within `gap_px` of each other.
 std::set<std::pair<int, int>> NeighbourSegments(const cv::Mat& labels, int gap_px);
 
-/// The full-frame 0/255 mask of a region's segments.
+/// The full-frame 0/255 mask of a region's segments (its own mask, for a region that has one).
 cv::Mat RegionMask(const cv::Mat& labels, const Proposal& proposal);
 
 /// The region as a segmenter would draw it: its segments plus the unclaimed pixels (no
@@ -51,11 +51,24 @@ cv::Mat RegionMask(const cv::Mat& labels, const Proposal& proposal);
 /// dark rims at the object's edges and the holes in its depth.
 cv::Mat FilledRegionMask(const cv::Mat& labels, const cv::Mat& support, const Proposal& proposal, int gap_px);
 
-/// The region's pixels (with depth: its segments') where `within` is set.
+/// The region's pixels with depth where `within` is set (for a region with its own mask:
+/// its pixels there).
 int PixelsInside(const cv::Mat& labels, const Proposal& proposal, const cv::Mat& within);
 
-/// Pixels the two regions share (they share whole segments).
-int SharedPixels(const Proposal& a, const Proposal& b, const std::vector<DepthSegment>& segments);
+/// Pixels with depth the two regions share (regions of segments share whole segments; with
+/// a region that has its own mask, the pixels of `a` with depth inside the other's).
+int SharedPixels(const Proposal& a, const Proposal& b, const DepthSegmentation& segmentation, const cv::Mat& depth);
+
+/// Islands: the connected parts of `region` (CV_8U: the frame less its support; pixels
+/// without depth count) after an opening by a (2 · island_open_px + 1) square, each a
+/// region with its own mask (Proposal::mask) when it holds at least
+/// segments.min_segment_pixels with depth and fits the largest object (`largest_extent_m`: its
+/// points' spans, and its pixel box at its median depth). An object lying apart on a floor
+/// or a bin's bottom is one, whole, with its pixels without depth (bare metal reflects the
+/// sensor's pattern away, dark faces absorb it); the depth segments break such an object
+/// into specks or lose it.
+std::vector<Proposal> FormIslands(const Frame& frame, const cv::Mat& region, double largest_extent_m,
+                                  const DetectOptions& options);
 
 /// Regions: every segment that fits the largest object and the unions of up to
 /// max_union_segments neighbouring ones that still fit it.

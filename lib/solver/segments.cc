@@ -90,8 +90,9 @@ class SurfaceStep {
   double noise_, slope_;
 };
 
-// Pixels, box, median depth and trimmed spans of segments 1..count of `labels` (CV_32S;
-// every labelled pixel has valid depth).
+
+}  // namespace
+
 std::vector<DepthSegment> SegmentStatistics(const Camera& camera, const cv::Mat& depth, const cv::Mat& labels,
                                             int count) {
   const size_t n = static_cast<size_t>(count);
@@ -135,8 +136,6 @@ std::vector<DepthSegment> SegmentStatistics(const Camera& camera, const cv::Mat&
   }
   return segments;
 }
-
-}  // namespace
 
 DepthSegmentation SegmentByDepth(const Camera& camera, const cv::Mat& depth, const cv::Mat& region,
                                  const SegmentOptions& options) {

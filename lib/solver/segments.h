@@ -84,6 +84,11 @@ struct DepthSegmentation {
   std::vector<DepthSegment> segments;
 };
 
+/// Pixels, box, median depth and trimmed spans of the segments 1..count of `labels` (CV_32S;
+/// every labelled pixel has valid depth in `depth`).
+std::vector<DepthSegment> SegmentStatistics(const Camera& camera, const cv::Mat& depth, const cv::Mat& labels,
+                                            int count);
+
 /// Splits the pixels of `region` (CV_8U, non-zero = in) with valid depth (`depth`: CV_32F
 /// metres, 0 or NaN = invalid) into 4-connected segments whose neighbouring depths differ by
 /// at most the noise of the sensor plus the step of a surface at options.max_incidence_deg.

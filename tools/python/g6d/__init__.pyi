@@ -245,6 +245,12 @@ class DetectOptions(_Options):
     plane_flatness_m: float
     min_plane_fraction: float
     support_extent_factor: float
+    raised_sigmas: float
+    raised_window_px: int
+    raised_level_px: int
+    raised_min_height_m: float
+    raised_flatness: float
+    island_open_px: int
     neighbour_gap_px: int
     max_union_segments: int
     max_regions: int
