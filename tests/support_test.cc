@@ -69,12 +69,18 @@ TEST(FindSupport, APlateLyingFlatOnTheFloorIsNotTakenAwayWithIt) {
   const FloorScene scene = MakeScene(0.003);
   const cv::Mat floor = ~(scene.plate | scene.block);
   DetectOptions options;
-  options.raised_sigmas = 3.0;  // off by default (detect_options.h)
   cv::Mat support;
   EXPECT_EQ(FindSupport(scene.frame, options, 0.1, &support), 1);
   EXPECT_GT(FractionWithDepthIn(scene, floor, support), 0.97);
   EXPECT_LT(FractionWithDepthIn(scene, scene.plate, support), 0.1);
   EXPECT_EQ(FractionWithDepthIn(scene, scene.block, support), 0.0);
+  // Asked for the raised pixels apart (as DetectObjects does: they join the islands, not
+  // the segments), the plate stays support and is raised.
+  cv::Mat raised;
+  FindSupport(scene.frame, options, 0.1, &support, &raised);
+  EXPECT_GT(FractionWithDepthIn(scene, scene.plate, support), 0.9);
+  EXPECT_GT(FractionWithDepthIn(scene, scene.plate, raised), 0.9);
+  EXPECT_LT(FractionWithDepthIn(scene, floor, raised), 0.01);
   // Without the test of the smoothed height the plate lies within the plane's tolerance and
   // goes with the floor: the cause.
   options.raised_sigmas = 0.0;
@@ -84,20 +90,16 @@ TEST(FindSupport, APlateLyingFlatOnTheFloorIsNotTakenAwayWithIt) {
 
 TEST(FindSupport, TheSensorsNoiseAloneRaisesNothing) {
   const FloorScene scene = MakeScene(0.0);  // the "plate" is floor with holes in its depth
-  DetectOptions options;
-  options.raised_sigmas = 3.0;
   cv::Mat support;
-  FindSupport(scene.frame, options, 0.1, &support);
+  FindSupport(scene.frame, DetectOptions(), 0.1, &support);
   const cv::Mat with_depth = scene.frame.depth > 0.0f;
   EXPECT_GT(cv::countNonZero(support & ~scene.block), 0.99 * cv::countNonZero(with_depth & ~scene.block));
 }
 
 TEST(FormIslands, AnObjectLyingApartIsOneRegionWithItsPixelsWithoutDepth) {
   const FloorScene scene = MakeScene(0.003);
-  DetectOptions options;
-  options.raised_sigmas = 3.0;  // the plate's depth is not support: the islands are the plate and the block
   cv::Mat support;
-  FindSupport(scene.frame, options, 0.1, &support);
+  FindSupport(scene.frame, DetectOptions(), 0.1, &support);  // the plate taken out of the support
   const std::vector<Proposal> islands = FormIslands(scene.frame, support == 0, 0.12, DetectOptions());
   ASSERT_EQ(islands.size(), 2u);
   for (const Proposal& island : islands) {

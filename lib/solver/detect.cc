@@ -341,7 +341,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
 
   {
     const ScopedTimer timer(&out.support_ms);
-    out.support_planes = FindSupport(frame, options, largest_diameter_m, &out.support);
+    out.support_planes = FindSupport(frame, options, largest_diameter_m, &out.support, &out.raised);
   }
   const double focal = std::min(frame.camera.fx, frame.camera.fy);
   const double noise = options.segments.noise_sigmas * options.segments.sensor_noise_at_1m;
@@ -393,6 +393,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
   std::vector<std::vector<cv::Mat>> solved_regions(requests.size());
   for (int pass = 0; pass <= options.explain_away_passes; ++pass) {
     cv::Mat region = first_region.clone();
+    cv::Mat island_region = first_region | out.raised;  // islands: with the thin parts lying on the support
     if (pass > 0) {
       // Explaining away: the pixels of the answers kept so far (their corrected masks,
       // grown by the fill gap) are no longer anyone's, and the rest is split again: a
@@ -406,6 +407,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
         cv::dilate(claimed, claimed, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(size, size)));
       }
       region.setTo(0, claimed);
+      island_region.setTo(0, claimed);
       ++out.explain_away_passes;
     }
     DetectionReport::Pass& step = out.passes.emplace_back();
@@ -423,7 +425,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
       const double largest_extent_m = largest_diameter_m + allowance_m(farthest);
       std::vector<Proposal> proposals = FormRegions(
           segmentation, NeighbourSegments(segmentation.labels, options.neighbour_gap_px), largest_extent_m, options);
-      for (Proposal& proposal : FormIslands(frame, region, largest_extent_m, options)) proposals.push_back(std::move(proposal));
+      for (Proposal& proposal : FormIslands(frame, island_region, largest_extent_m, options)) proposals.push_back(std::move(proposal));
       for (Proposal& proposal : proposals) proposal.pass = pass;
       out.proposals.insert(out.proposals.end(), proposals.begin(), proposals.end());
     }
@@ -490,7 +492,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
         if (!has_colour && options.rank_uncoloured_by_shape && solver_options.use_ppf && !bank.ppf.empty() &&
             !trials.empty()) {
           const ScopedTimer shape_timer(&out.shape_ms);
-          ShapeTerms(frame, bank, region, segmentation, out.proposals, options, solver_options.ppf, executor, &trials);
+          ShapeTerms(frame, bank, island_region, segmentation, out.proposals, options, solver_options.ppf, executor, &trials);
           for (CandidateTrial& trial : trials) {
             trial.rank = (1.0 - options.colour_weight) * trial.size_term + options.colour_weight * trial.shape_term;
           }

@@ -104,6 +104,9 @@ struct DetectionReport {
   std::string message = "not run";
   int support_planes = 0;
   cv::Mat support;                  ///< CV_8U 0/255, frame size: the removed support pixels
+  /// CV_8U 0/255: the support's pixels that stand above its level (thin parts lying on it:
+  /// DetectOptions::raised_*); they join the islands, not the depth segments.
+  cv::Mat raised;
   cv::Mat creases;                  ///< CV_8U 0/255: concave creases the segments were split at
   DepthSegmentation segmentation;   ///< the first pass's segments of the rest (SegmentByDepthAndCreases)
   /// One pass of proposals and solves: the first over everything but the support, each

@@ -38,16 +38,16 @@ struct DetectOptions {
   /// averages out, a part's face does not) and compared with the support's local level (the
   /// average over `raised_level_px` squares of the pixels not raised); pixels higher than
   /// `raised_sigmas` robust sigmas of that smoothed height over the whole support (and than
-  /// `raised_min_height_m`) are not support but depth to segment, when they form a connected
-  /// part of at least segments.min_segment_pixels that is level: the robust spread of its
-  /// heights at most `raised_flatness` times the support's (a real sensor's depth smeared up
-  /// towards an object's foot is a ramp, not a part). The test reads depth alone: a table's
-  /// texture cannot trigger it; a real sensor's depth bends over the image, and the local
-  /// level follows it. 0 = off, the default: at 3 it found 40.8% of synth_dev's bin parts
-  /// without masks against 34.5%, but on the real YCB-V clutter (Asus Xtion) it gave the
-  /// table's depth near the objects' feet to their regions, and an answer went wrong (100% ->
-  /// 93.3%; bench/RESULTS.md, issue 31). A real sensor's smoothing is not the simulated one's.
-  double raised_sigmas = 0.0;
+  /// `raised_min_height_m`) are raised, when they form a connected part of at least
+  /// segments.min_segment_pixels that is level: the robust spread of its heights at most
+  /// `raised_flatness` times the support's. Raised pixels join the islands (island_open_px),
+  /// not the depth segments: given to the segments too, they found 40.8% of synth_dev's bin
+  /// parts without masks (34.5% without them), but on the real YCB-V clutter (Asus Xtion) the
+  /// table's depth smeared up to an object's foot joined its segments and an answer went
+  /// wrong (100% -> 93.3%); as islands only: bins 37.4%, the real sets unchanged
+  /// (bench/RESULTS.md, issue 31). The test reads depth alone: a table's texture cannot
+  /// trigger it. 0 = off.
+  double raised_sigmas = 3.0;
   int raised_window_px = 7;
   int raised_level_px = 101;
   double raised_min_height_m = 0.001;

@@ -151,9 +151,11 @@ cv::Mat RaisedPixels(const Frame& frame, const Plane& plane, const cv::Mat& on_s
 
 }  // namespace
 
-int FindSupport(const Frame& frame, const DetectOptions& options, double largest_diameter_m, cv::Mat* support) {
+int FindSupport(const Frame& frame, const DetectOptions& options, double largest_diameter_m, cv::Mat* support,
+                cv::Mat* raised) {
   const cv::Mat& depth = frame.depth;
   *support = cv::Mat::zeros(depth.size(), CV_8U);
+  if (raised != nullptr) *raised = cv::Mat::zeros(depth.size(), CV_8U);
   int valid = 0;
   for (int v = 0; v < depth.rows; ++v) {
     const float* d = depth.ptr<float>(v);
@@ -231,7 +233,11 @@ int FindSupport(const Frame& frame, const DetectOptions& options, double largest
         if (l[u] > 0 && is_support[static_cast<size_t>(l[u])]) s[u] = 255;
       }
     }
-    if (options.raised_sigmas > 0.0) on_support.setTo(0, RaisedPixels(frame, plane, on_support, options));
+    if (options.raised_sigmas > 0.0) {
+      const cv::Mat above = RaisedPixels(frame, plane, on_support, options);
+      if (raised != nullptr) *raised |= above;
+      else on_support.setTo(0, above);
+    }
     *support |= on_support;
     std::vector<Eigen::Vector3d> left;
     std::vector<cv::Point> left_pixels;

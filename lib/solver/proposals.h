@@ -37,8 +37,11 @@ struct Proposal {
 
 /// Support planes (DetectOptions): RANSAC on a grid sample of the depth, one plane after the
 /// other; a plane's large connected inlier parts are the support. Returns the number of
-/// planes removed and fills *support (CV_8U 0/255).
-int FindSupport(const Frame& frame, const DetectOptions& options, double largest_diameter_m, cv::Mat* support);
+/// planes removed and fills *support (CV_8U 0/255). The support's pixels that stand above its
+/// level (DetectOptions::raised_*: thin parts lying flat on it) go to *raised (CV_8U 0/255)
+/// when it is given, and stay support; without it they are taken out of the support.
+int FindSupport(const Frame& frame, const DetectOptions& options, double largest_diameter_m, cv::Mat* support,
+                cv::Mat* raised = nullptr);
 
 /// Pairs of segments (1-based labels, a < b) with pixels within `gap_px` of each other.
 std::set<std::pair<int, int>> NeighbourSegments(const cv::Mat& labels, int gap_px);
