@@ -475,7 +475,8 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
           if (proposal.extent_m > d + allowance_m(proposal.depth_m)) continue;
           if (proposal.extent_m < options.min_extent_fraction * d) continue;
           const double whole_px = focal * d / proposal.depth_m;
-          if (proposal.pixels < options.min_area_fraction * whole_px * whole_px * M_PI / 8.0) continue;
+          const int area = proposal.mask.empty() ? proposal.pixels : std::max(proposal.pixels, proposal.mask_pixels);
+          if (area < options.min_area_fraction * whole_px * whole_px * M_PI / 8.0) continue;
           if (!requests[r].within.empty() &&
               2 * PixelsInside(segmentation.labels, proposal, requests[r].within) < std::min(proposal.pixels, within_pixels[r])) {
             continue;

@@ -376,15 +376,17 @@ std::vector<Proposal> FormIslands(const Frame& frame, const cv::Mat& region, dou
   for (int k = 1; k < count; ++k) {
     const DepthSegment& island = statistics[static_cast<size_t>(k - 1)];
     if (island.pixels < options.segments.min_segment_pixels) continue;
-    if (island.spans.Extent() > largest_extent_m) continue;
     const cv::Rect box(stats.at<int>(k, cv::CC_STAT_LEFT), stats.at<int>(k, cv::CC_STAT_TOP),
                        stats.at<int>(k, cv::CC_STAT_WIDTH), stats.at<int>(k, cv::CC_STAT_HEIGHT));
-    if (std::max(box.width, box.height) * island.median_depth_m / focal > largest_extent_m) continue;
+    const double extent_m =
+        std::max(island.spans.Extent(), std::max(box.width, box.height) * island.median_depth_m / focal);
+    if (extent_m > largest_extent_m) continue;
     Proposal proposal;
     proposal.box = box;
     proposal.pixels = island.pixels;
+    proposal.mask_pixels = stats.at<int>(k, cv::CC_STAT_AREA);
     proposal.depth_m = island.median_depth_m;
-    proposal.extent_m = island.spans.Extent();
+    proposal.extent_m = extent_m;
     for (int axis = 0; axis < 3; ++axis) {
       proposal.centre_m[axis] = 0.5 * (island.spans.low[static_cast<size_t>(axis)] + island.spans.high[static_cast<size_t>(axis)]);
     }

@@ -31,6 +31,7 @@ struct Proposal {
   /// size, the pixels on the surface of a voted pose of object `ppf_request`; `segments` is
   /// then empty. Empty for a region of the depth segments.
   cv::Mat mask;
+  int mask_pixels = 0;  ///< pixels of `mask`, with depth or not (an island's area)
   int ppf_request = -1;
   double ppf_votes = 0.0;
 };
@@ -66,7 +67,8 @@ int SharedPixels(const Proposal& a, const Proposal& b, const DepthSegmentation& 
 /// without depth count) after an opening by a (2 · island_open_px + 1) square, each a
 /// region with its own mask (Proposal::mask) when it holds at least
 /// segments.min_segment_pixels with depth and fits the largest object (`largest_extent_m`: its
-/// points' spans, and its pixel box at its median depth). An object lying apart on a floor
+/// points' spans, and its pixel box at its median depth). Its extent is the larger of the
+/// two: bare metal leaves few points with depth, spread thin over the part. An object lying apart on a floor
 /// or a bin's bottom is one, whole, with its pixels without depth (bare metal reflects the
 /// sensor's pattern away, dark faces absorb it); the depth segments break such an object
 /// into specks or lose it.
