@@ -1,4 +1,3 @@
-#include <cstdlib>
 #include <cstdio>
 
 #include <opencv2/imgproc.hpp>
@@ -14,13 +13,9 @@ cv::Mat DrawDetectionPicture(const Frame& frame, const std::vector<DetectRequest
   if (!report.support.empty()) {
     cv::Mat dark = picture * 0.35;
     dark.copyTo(picture, report.support);
-    if (std::getenv("G6D_DEBUG_PIC")) {  // TEMP
-      picture.setTo(cv::Scalar(0, 0, 160), report.support);
-      if (!report.raised.empty()) picture.setTo(cv::Scalar(0, 200, 0), report.raised);
-      cv::Mat unlabeled = (report.segmentation.labels <= 0) & (report.support == 0) & (frame.depth > 0);
-      picture.setTo(cv::Scalar(200, 0, 0), unlabeled);
-    }
   }
+  // Thin parts raised above the support (they join the islands), outlined in cyan.
+  if (!report.raised.empty() && cv::countNonZero(report.raised) > 0) DrawMaskOutline(report.raised, cv::Scalar(0, 255, 255), 1, &picture);
   // Concave creases the segments were split at, in magenta.
   if (!report.creases.empty()) picture.setTo(cv::Scalar(255, 0, 255), report.creases);
   // Segment outlines: a colour per label from a fixed hue walk.
