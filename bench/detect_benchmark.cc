@@ -207,6 +207,27 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
       // its object is right for it.
       std::vector<cv::Mat> pixels(report.proposals.size());
       for (size_t p = 0; p < report.proposals.size(); ++p) pixels[p] = ProposalPixels(report, report.proposals[p]);
+      // What each solved region holds: the GT instance of its object it overlaps most.
+      std::vector<double> solved_holds(report.trials.size(), 0.0);
+      for (size_t g = 0; g < bop_frame.gt.size(); ++g) {
+        const BopGtInstance& gt = bop_frame.gt[g];
+        const auto request = std::find(obj_of_request.begin(), obj_of_request.end(), gt.obj_id);
+        if (request == obj_of_request.end()) continue;
+        const cv::Mat visible = LoadBopMaskVisib(scene, im_id, static_cast<int>(g)) > 0;
+        for (size_t t = 0; t < report.trials.size(); ++t) {
+          const CandidateTrial& trial = report.trials[t];
+          if (!trial.solved || trial.request != static_cast<int>(request - obj_of_request.begin())) continue;
+          solved_holds[t] = std::max(solved_holds[t], Iou(pixels[static_cast<size_t>(trial.proposal)], visible));
+        }
+      }
+      for (size_t t = 0; t < report.trials.size(); ++t) {
+        const CandidateTrial& trial = report.trials[t];
+        if (!trial.solved) continue;
+        std::fprintf(stderr, "      solved: request %d rank %.3f (size %.2f shape %.2f; %s) holds an instance at IoU %.2f%s\n",
+                     trial.request, trial.rank, trial.size_term, trial.shape_term,
+                     report.proposals[static_cast<size_t>(trial.proposal)].mask.empty() ? "segments" : "own mask",
+                     solved_holds[t], solved_holds[t] < 0.5 ? " (NONE)" : "");
+      }
       for (size_t g = 0; g < bop_frame.gt.size(); ++g) {
         const BopGtInstance& gt = bop_frame.gt[g];
         const auto request = std::find(obj_of_request.begin(), obj_of_request.end(), gt.obj_id);
