@@ -493,7 +493,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
         if (!has_colour && options.rank_uncoloured_by_shape && solver_options.use_ppf && !bank.ppf.empty() &&
             !trials.empty()) {
           const ScopedTimer shape_timer(&out.shape_ms);
-          ShapeTerms(frame, bank, island_region, segmentation, out.proposals, options, solver_options.ppf, executor, &trials);
+          ShapeTerms(frame, bank, all_within ? region : island_region, segmentation, out.proposals, options, solver_options.ppf, executor, &trials);
           for (CandidateTrial& trial : trials) {
             trial.rank = (1.0 - options.colour_weight) * trial.size_term + options.colour_weight * trial.shape_term;
           }
