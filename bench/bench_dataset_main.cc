@@ -248,9 +248,9 @@ int main(int argc, char** argv) {
   app.add_option("--detect-raised-flatness", detect_options.raised_flatness,
                  "--masks none: a raised part's heights may spread this many times the support's")
       ->capture_default_str();
-  bool islands_not_first = false;
-  app.add_flag("--detect-islands-not-first", islands_not_first,
-               "--masks none: objects without colour rank islands with the segments, not before them (ablation)");
+  app.add_option("--detect-island-bonus", detect_options.uncoloured_island_bonus,
+                 "--masks none: added to the rank of an island for an object without colour (0 = none)")
+      ->capture_default_str();
   app.add_option("--detect-island-open", detect_options.island_open_px,
                  "--masks none: islands (connected parts of the frame less its support, opened by this many pixels) "
                  "are candidate regions too (-1 = none)")
@@ -366,7 +366,6 @@ int main(int argc, char** argv) {
       detect_args.solver = options;
       detect_args.detect = detect_options;
       if (no_shape) detect_args.detect.rank_uncoloured_by_shape = false;
-      if (islands_not_first) detect_args.detect.uncoloured_islands_first = false;
       return g6d::bench::RunDetectBenchmark(detect_args);
     }
     degrade.mode = g6d::ParseMaskDegradation(degrade_mode);

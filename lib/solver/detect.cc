@@ -501,9 +501,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
         for (CandidateTrial& trial : trials) {
           const Proposal& proposal = out.proposals[static_cast<size_t>(trial.proposal)];
           if (has_near && (proposal.centre_m - requests[r].near_point_m).norm() <= bank.diameter_m) trial.rank += 1.0;
-          if (!has_colour && options.uncoloured_islands_first && !proposal.mask.empty() && proposal.ppf_request < 0) {
-            trial.rank += 1.0;  // ranks are in [0, 1]: the islands before the segments
-          }
+          if (!has_colour && !proposal.mask.empty() && proposal.ppf_request < 0) trial.rank += options.uncoloured_island_bonus;
         }
         std::stable_sort(trials.begin(), trials.end(),
                          [](const CandidateTrial& a, const CandidateTrial& b) { return a.rank > b.rank; });

@@ -21,6 +21,7 @@ std::string DetectOptions::Check() const {
   else if (!(raised_flatness > 0.0)) out << "DetectOptions.raised_flatness must be > 0 (got " << raised_flatness << ")";
   else if (!(raised_min_height_m >= 0.0 && raised_min_height_m < 0.1)) out << "DetectOptions.raised_min_height_m must be in [0, 0.1) m (got " << raised_min_height_m << ")";
   else if (island_open_px < -1 || island_open_px > 10) out << "DetectOptions.island_open_px must be in [-1, 10] (-1 = no islands; got " << island_open_px << ")";
+  else if (!(uncoloured_island_bonus >= 0.0 && uncoloured_island_bonus <= 1.0)) out << "DetectOptions.uncoloured_island_bonus must be in [0, 1] (got " << uncoloured_island_bonus << ")";
   else if (neighbour_gap_px < 1) out << "DetectOptions.neighbour_gap_px must be >= 1 (got " << neighbour_gap_px << ")";
   else if (max_union_segments < 1) out << "DetectOptions.max_union_segments must be >= 1 (got " << max_union_segments << ")";
   else if (max_regions < 1) out << "DetectOptions.max_regions must be >= 1 (got " << max_regions << ")";

@@ -56,14 +56,15 @@ struct DetectOptions {
   /// opened by a (2 · island_open_px + 1) square, are candidate regions too, beside the depth
   /// segments and their unions (-1 = none). Not inside a request's `within`.
   int island_open_px = 1;
-  /// For an object without colour, the islands rank before the depth segments and their
-  /// unions (among themselves by size and shape as usual): with neither colour nor texture
-  /// to go by, a part the support surrounds is the region most likely to hold one whole
-  /// object. On synth_dev's bins, 58% of the islands solved held an instance, 18% of the
-  /// segment regions. Objects with colour keep one ranking for all: on the real YCB-V
-  /// clutter an island is often several touching objects, and ranking islands first for
-  /// every object found 20% there (bench/RESULTS.md, issue 31).
-  bool uncoloured_islands_first = true;
+  /// For an object without colour, an island's rank (in [0, 1] by size and shape) gets this
+  /// much more: with neither colour nor texture to go by, a part the support surrounds is
+  /// the region most likely to hold one whole object (on synth_dev's bins, 58% of the
+  /// islands solved held an instance, 18% of the segment regions), but a small island of
+  /// poor shape must not pass a region that looks like the object. Tried: 1 (islands strictly
+  /// first) found 44.1% of the bins' parts, but on the real YCB-V clutter the can (no colour
+  /// in its cache) was answered on speckle islands (100% -> 60%); 0.15: bins 43.3%, the can
+  /// unchanged; 0: bins 40.8% (bench/RESULTS.md, issue 31).
+  double uncoloured_island_bonus = 0.15;
   /// Segments whose pixel boxes lie within this many pixels of each other are neighbours.
   int neighbour_gap_px = 6;
   /// Unions of at most this many neighbouring segments are candidates too.

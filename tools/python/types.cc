@@ -348,7 +348,7 @@ void BindOptions(py::module_& module) {
         G6D_FIELD(segments) G6D_FIELD(max_planes) G6D_FIELD(plane_iterations) G6D_FIELD(plane_samples)
         G6D_FIELD(plane_flatness_m) G6D_FIELD(min_plane_fraction) G6D_FIELD(support_extent_factor)
         G6D_FIELD(raised_sigmas) G6D_FIELD(raised_window_px) G6D_FIELD(raised_level_px) G6D_FIELD(raised_min_height_m)
-        G6D_FIELD(raised_flatness) G6D_FIELD(island_open_px) G6D_FIELD(uncoloured_islands_first)
+        G6D_FIELD(raised_flatness) G6D_FIELD(island_open_px) G6D_FIELD(uncoloured_island_bonus)
         G6D_FIELD(neighbour_gap_px) G6D_FIELD(max_union_segments) G6D_FIELD(max_regions)
         G6D_FIELD(extent_margin_px) G6D_FIELD(min_extent_fraction) G6D_FIELD(min_area_fraction)
         G6D_FIELD(extra_candidates) G6D_FIELD(colour_weight) G6D_FIELD(rank_uncoloured_by_shape) G6D_FIELD(shape_references) G6D_FIELD(accept_confidence)

@@ -251,7 +251,7 @@ class DetectOptions(_Options):
     raised_min_height_m: float
     raised_flatness: float
     island_open_px: int
-    uncoloured_islands_first: bool
+    uncoloured_island_bonus: float
     neighbour_gap_px: int
     max_union_segments: int
     max_regions: int
