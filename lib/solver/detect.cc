@@ -236,7 +236,6 @@ void ShapeTerms(const Frame& frame, const TemplateBank& bank, const cv::Mat& reg
     double& best = unit_support[static_cast<size_t>(reference_unit[k])];
     best = std::max(best, static_cast<double>(support[k]));
   }
-  const std::vector<double>& segment_support = unit_support;
   for (size_t k = 0; k < masked.size(); ++k) {
     (*trials)[masked[k]].shape_term = std::max(0.0, unit_support[segment_count + 1 + k]);
   }
@@ -248,7 +247,7 @@ void ShapeTerms(const Frame& frame, const TemplateBank& bank, const cv::Mat& reg
     }
     double sum = 0.0, weight = 0.0;
     for (int label : proposals[static_cast<size_t>(trial.proposal)].segments) {
-      const double s = segment_support[static_cast<size_t>(label)];
+      const double s = unit_support[static_cast<size_t>(label)];
       if (s < 0.0) continue;
       const double pixels = segmentation.segments[static_cast<size_t>(label) - 1].pixels;
       sum += s * pixels;

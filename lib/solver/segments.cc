@@ -90,7 +90,6 @@ class SurfaceStep {
   double noise_, slope_;
 };
 
-
 }  // namespace
 
 std::vector<DepthSegment> SegmentStatistics(const Camera& camera, const cv::Mat& depth, const cv::Mat& labels,
