@@ -26,6 +26,7 @@
 #include "eval/mask_degrade.h"
 #include "eval/metrics.h"
 #include "mesh/mesh.h"
+#include "solver/detect.h"
 #include "solver/identify.h"
 #include "solver/neighbours.h"
 #include "solver/pipeline.h"
@@ -173,11 +174,11 @@ int main(int argc, char** argv) {
   int max_search_regions = -1;
   app.add_option("--grow-fraction", grow_fraction, "search region grown by the depth up to this fraction of the mask box (0 = off; default: solver's)");
   int region_candidates = -1;
-  double region_search_confidence = -1.0;
+  double unsure_score = -1.0;
   app.add_option("--region-candidates", region_candidates,
                  "depth regions solved in place of a mask wider than the object or an unsure answer (0 = off; default: solver's)");
-  app.add_option("--region-search-confidence", region_search_confidence,
-                 "the depth regions are solved too when the mask's answer has a confidence below this (0 = only for wide masks; default: solver's)");
+  app.add_option("--unsure-score", unsure_score,
+                 "the depth regions are solved too when the mask's answer has S_A above this (ambiguous answers: the solver's unsure_ambiguous_score; 2 = only for wide masks and boxes; default: solver's)");
   bool no_neighbours = false;
   app.add_flag("--no-neighbours", no_neighbours,
                "solve each instance alone: no second pass of an image's doubtful instances without the pixels their "
@@ -255,6 +256,12 @@ int main(int argc, char** argv) {
                  "--masks none: islands (connected parts of the frame less its support, opened by this many pixels) "
                  "are candidate regions too (-1 = none)")
       ->capture_default_str();
+  std::vector<double> detect_confidence;
+  app.add_option("--detect-confidence", detect_confidence,
+                 "--masks none: the confidence's weights (scripts/calibrate_detection.py): bias, S_A, ambiguous, "
+                 "on_surface, free_space, contour, region_iou, colour (default: DetectOptions')")
+      ->expected(8)
+      ->delimiter(',');
   app.add_option("--detect-min-confidence", detect_options.min_confidence,
                  "--masks none: an answer less confident than this is no answer")
       ->capture_default_str();
@@ -293,6 +300,13 @@ int main(int argc, char** argv) {
                "regions solved for its object with its visible mask: where detection lost it (segments, ranking "
                "or solve)");
   CLI11_PARSE(app, argc, argv);
+  if (!detect_confidence.empty()) {
+    double* weights[] = {&detect_options.confidence_bias, &detect_options.confidence_score_weight,
+                         &detect_options.confidence_ambiguous_weight, &detect_options.confidence_on_surface_weight,
+                         &detect_options.confidence_free_space_weight, &detect_options.confidence_contour_weight,
+                         &detect_options.confidence_region_iou_weight, &detect_options.confidence_colour_weight};
+    for (size_t k = 0; k < detect_confidence.size(); ++k) *weights[k] = detect_confidence[k];
+  }
 
   try {
     g6d::BopDataset dataset = g6d::LoadBopDataset(dataset_dir);
@@ -334,7 +348,7 @@ int main(int argc, char** argv) {
     if (max_search_regions >= 0) options.max_search_regions = max_search_regions;
     if (region_candidates >= 0) options.region_candidates = region_candidates;
     if (no_neighbours) options.explain_neighbours = false;
-    if (region_search_confidence >= 0.0) options.region_search_confidence = region_search_confidence;
+    if (unsure_score >= 0.0) options.unsure_score = unsure_score;
     if (pnp_min_quality >= 0.0) options.pnp_min_quality_ratio = pnp_min_quality;
     options.post_refine = post_refine;
     if (icp_min_step > 0) options.icp.min_step_m = icp_min_step;
@@ -390,7 +404,9 @@ int main(int argc, char** argv) {
                    "scene_id,im_id,obj_id,gt_idx,success,score,confidence,iou,depth_residual,error_d,correct,total_ms,"
                    "truncated,ambiguous,runner_up_gap,appearance_valid,appearance_agreement,appearance_changed,"
                    "gt_score,gt_iou,gt_depth_residual,gt_occluded_px,sets_tried,pnp_hypotheses,pnp_merged,kept,"
-                   "icp_iterations,answer_set_rank,answer_quality_ratio,ppf_hypotheses,ppf_distinct,answer_from_ppf%s\n",
+                   "icp_iterations,answer_set_rank,answer_quality_ratio,ppf_hypotheses,ppf_distinct,answer_from_ppf,"
+                   "on_surface,free_space,contour_support,mask_iou,mask_wider,mask_is_box,depth_region_chosen,"
+                   "neighbour_answer_chosen%s\n",
                    unknown_identity ? ",chosen_id,right_identity,true_object_score,best_other_id,best_other_score,"
                                       "candidates_solved,screened_out,identify_ms"
                                     : "");
@@ -626,6 +642,18 @@ int main(int argc, char** argv) {
           std::fprintf(records, "%d,%d,%d,%d,%d,%d,%.4f", s.sets_tried, s.pnp_hypotheses, s.pnp_merged, s.kept_hypotheses,
                        s.icp_iterations, s.answer_set_rank, s.answer_quality_ratio);
           std::fprintf(records, ",%d,%d,%d", s.ppf_hypotheses, s.ppf_distinct, s.answer_from_ppf ? 1 : 0);
+          if (result.success && !unknown_identity) {
+            // The answer against the whole frame (as detection's answers are checked).
+            const g6d::DetectOptions frame_check;
+            const g6d::FrameCheck check = g6d::CheckAgainstFrame(frame, object.bank, result.cam_from_object,
+                                                                 frame_check.free_space_fraction * object.bank.diameter_m,
+                                                                 frame_check.ppf_contour_step_m);
+            std::fprintf(records, ",%.4f,%.4f,%.4f", check.on_surface, check.free_space, check.contour_support);
+          } else {
+            std::fprintf(records, ",,,");
+          }
+          std::fprintf(records, ",%.4f,%d,%d,%d,%d", result.mask_iou, s.mask_wider_than_object ? 1 : 0,
+                       s.mask_is_box ? 1 : 0, s.depth_region_chosen ? 1 : 0, s.neighbour_answer_chosen ? 1 : 0);
           if (unknown_identity) {
             // The true object's S and the best other object's: the margin identity was decided by.
             double true_score = 2.0, other_score = 2.0;

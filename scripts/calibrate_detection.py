@@ -4,7 +4,8 @@ of g6d-bench-dataset --masks none --records FILE.csv of several datasets: P(answ
 a logistic in what the answer already has,
 
     S_A, ambiguous, on_surface, free_space, contour_support (its frame check, FrameCheck),
-    region_iou (its corrected mask against the region solved),
+    region_iou (its corrected mask against the region solved), colour_term (the region's
+    chromaticity against the model's; 0.5 for a model without colour),
 
 Answers for absent objects (--absent-requests) are wrong answers. Measured honestly:
 leave-one-dataset-out (fit on the others, measured on the held-out one) and leave-one-object-
@@ -24,11 +25,12 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from calibrate_confidence import fit, predict, report  # noqa: E402
 
-FEATURES = ["bias", "score", "ambiguous", "on_surface", "free_space", "contour_support", "region_iou"]
+FEATURES = ["bias", "score", "ambiguous", "on_surface", "free_space", "contour", "region_iou", "colour"]
+COLUMNS = ["score", "ambiguous", "on_surface", "free_space", "contour_support", "region_iou", "colour_term"]
 
 
 def features(r):
-    return [1.0, r["score"], r["ambiguous"], r["on_surface"], r["free_space"], r["contour_support"], r["region_iou"]]
+    return [1.0] + [r[k] for k in COLUMNS]
 
 
 def load(path):
@@ -37,7 +39,7 @@ def load(path):
         for r in csv.DictReader(f):
             if None in r.values():
                 continue  # a file still being written
-            row = {k: float(r[k]) for k in FEATURES[1:]}
+            row = {k: float(r[k]) for k in COLUMNS}
             row.update(y=int(r["correct"]), obj=int(r["obj_id"]), absent=int(r["absent"]),
                        had=float(r["confidence"]))
             rows.append(row)

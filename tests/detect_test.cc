@@ -264,7 +264,7 @@ TEST_F(DetectTest, ANeighboursConfidentAnswerTakesItsPixelsOutOfAMergedMask) {
   std::vector<PoseResult> answers;
   for (size_t k = 0; k < 2; ++k) answers.push_back(EstimatePose(scene.frame, instances[k], *banks[k], options, &pool));
   ASSERT_TRUE(answers[1].success) << answers[1].message;
-  ASSERT_GE(answers[1].confidence, options.region_search_confidence) << "S " << answers[1].score;
+  ASSERT_FALSE(UnsureOfScore(options, answers[1].score, answers[1].ambiguous)) << "S " << answers[1].score;
   EXPECT_TRUE(answers[0].stages.mask_wider_than_object);
   const std::vector<PoseResult> first = answers;
   ExplainAwayNeighbours(scene.frame, instances, banks, {}, options, &pool, &answers);
@@ -327,7 +327,9 @@ TEST_F(DetectTest, AnObjectThatIsNotThereGetsNoAnswer) {
   const std::vector<Detection> guesses =
       DetectObjects(scene.frame, {{&Box().bank, 1}, {&Bar().bank, 1}}, QuickSolver(), options, &pool, nullptr);
   for (const Detection& guess : guesses) {
-    if (guess.object_id == Bar().id) EXPECT_LT(guess.result.confidence, DetectOptions().min_confidence);
+    if (guess.object_id == Bar().id) {
+      EXPECT_LT(guess.result.confidence, DetectOptions().min_confidence);
+    }
   }
 }
 
@@ -404,8 +406,11 @@ TEST(SolverOptions, TheDepthRegionOptionsAreChecked) {
   options.region_candidates = -1;
   EXPECT_NE(options.Check().find("region_candidates"), std::string::npos) << options.Check();
   options = SolverOptions();
-  options.region_search_confidence = 1.5;
-  EXPECT_NE(options.Check().find("region_search_confidence"), std::string::npos) << options.Check();
+  options.unsure_score = -0.1;
+  EXPECT_NE(options.Check().find("unsure_score"), std::string::npos) << options.Check();
+  options = SolverOptions();
+  options.unsure_ambiguous_score = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(options.Check().find("unsure_ambiguous_score"), std::string::npos) << options.Check();
   options = SolverOptions();
   options.neighbour_min_fraction = 0.0;
   EXPECT_NE(options.Check().find("neighbour_min_fraction"), std::string::npos) << options.Check();
@@ -440,17 +445,49 @@ TEST(DetectionConfidence, RisesWithWhatTheFrameConfirmsAndFallsWithS) {
   FrameCheck check;
   check.on_surface = 0.8;
   check.contour_support = 0.6;
-  const double base = DetectionConfidence(options, result, check, 0.8);
+  const double base = DetectionConfidence(options, result, check, 0.8, 0.5);
   EXPECT_GT(base, 0.5);
   EXPECT_LT(base, 1.0);
   FrameCheck worse = check;
   worse.on_surface = 0.3;  // most of the rendered model is not where the depth is
-  EXPECT_LT(DetectionConfidence(options, result, worse, 0.8), base - 0.2);
+  EXPECT_LT(DetectionConfidence(options, result, worse, 0.8, 0.5), base - 0.2);
   PoseResult higher = result;
   higher.score = 0.3;
-  EXPECT_LT(DetectionConfidence(options, higher, check, 0.8), base);
+  EXPECT_LT(DetectionConfidence(options, higher, check, 0.8, 0.5), base);
   higher.score = std::numeric_limits<double>::infinity();
-  EXPECT_EQ(DetectionConfidence(options, higher, check, 0.8), 0.0);
+  EXPECT_EQ(DetectionConfidence(options, higher, check, 0.8, 0.5), 0.0);
+}
+
+// A region whose colours are not the model's (an object asked for that is not there, found
+// on another object's region) lowers the confidence; a model without colour (0.5) is neutral.
+TEST(DetectionConfidence, FallsWhenTheRegionsColourIsNotTheModels) {
+  const DetectOptions options;
+  PoseResult result;
+  result.score = 0.1;
+  FrameCheck check;
+  check.on_surface = 0.9;
+  check.contour_support = 0.8;
+  const double unlike = DetectionConfidence(options, result, check, 0.8, 0.0);
+  const double uncoloured = DetectionConfidence(options, result, check, 0.8, 0.5);
+  const double alike = DetectionConfidence(options, result, check, 0.8, 0.9);
+  EXPECT_LT(unlike, uncoloured - 0.2);
+  EXPECT_GT(uncoloured, options.min_confidence);
+  EXPECT_GT(alike, uncoloured);
+}
+
+// Which answers on a mask are unsure is a threshold on S_A (stricter when ambiguous), so
+// that the published confidence can be refitted without changing any answer.
+TEST(SolverOptions, UnsureOfScoreReadsSAndTheAmbiguityNotTheConfidence) {
+  SolverOptions options;
+  EXPECT_FALSE(UnsureOfScore(options, 0.23, false));
+  EXPECT_TRUE(UnsureOfScore(options, 0.23, true));
+  EXPECT_TRUE(UnsureOfScore(options, 0.3, false));
+  EXPECT_TRUE(UnsureOfScore(options, std::numeric_limits<double>::quiet_NaN(), false));
+  const bool before = UnsureOfScore(options, 0.23, false);
+  options.confidence_bias = -20.0;  // a confidence of ~0 everywhere
+  EXPECT_EQ(UnsureOfScore(options, 0.23, false), before);
+  options.unsure_score = 2.0;  // only wide masks and boxes are searched again
+  EXPECT_FALSE(UnsureOfScore(options, 1.0, false));
 }
 
 }  // namespace

@@ -15,7 +15,7 @@ namespace g6d {
 bool AnswerInDoubt(const PoseResult& answer, const SolverOptions& options) {
   if (!answer.success) return answer.termination == Termination::kNoHypothesis;
   const StageReport& s = answer.stages;
-  return s.mask_wider_than_object || s.mask_is_box || answer.confidence < options.region_search_confidence;
+  return s.mask_wider_than_object || s.mask_is_box || UnsureOfScore(options, answer.score, answer.ambiguous);
 }
 
 PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, const TemplateBank& bank,

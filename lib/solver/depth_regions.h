@@ -23,13 +23,13 @@ namespace g6d {
 /// Whether an answer on a mask is in doubt, so that a second reading of the mask is worth
 /// a solve (the depth's regions here, the neighbours' pixels taken out in neighbours.h): a
 /// success whose mask holds more than the object (mask_wider_than_object), is a box
-/// (mask_is_box) or whose confidence is under options.region_search_confidence; a failure
+/// (mask_is_box) or that is unsure (UnsureOfScore: SolverOptions::unsure_score); a failure
 /// for want of any hypothesis. Other refusals (bad input, reject_border_masks) stand.
 bool AnswerInDoubt(const PoseResult& answer, const SolverOptions& options);
 
 /// Returns `on_mask` (EstimatePoseOnMask's answer on the caller's mask), or, when the mask's
 /// depth spans more than the object can reach (on_mask.stages.mask_wider_than_object, kDepth) or
-/// the answer is unsure (SolverOptions::region_search_confidence) and a region of the depth
+/// the answer is unsure (SolverOptions::unsure_score) and a region of the depth
 /// inside it gives a lower S_A, that answer, with the time, the count
 /// of regions solved and `depth_region_chosen` in its stages and its corrected mask's IoU
 /// with the caller's mask. Off when options.region_candidates is 0. Never throws.

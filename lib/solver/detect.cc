@@ -297,14 +297,15 @@ std::vector<Detection> SelectAnswers(const Frame& frame, const std::vector<Detec
 }  // namespace
 
 double DetectionConfidence(const DetectOptions& options, const PoseResult& result, const FrameCheck& check,
-                           double region_iou) {
+                           double region_iou, double colour_term) {
   if (!std::isfinite(result.score)) return 0.0;
   const double logit = options.confidence_bias + options.confidence_score_weight * result.score +
                        (result.ambiguous ? options.confidence_ambiguous_weight : 0.0) +
                        options.confidence_on_surface_weight * check.on_surface +
                        options.confidence_free_space_weight * check.free_space +
                        options.confidence_contour_weight * check.contour_support +
-                       options.confidence_region_iou_weight * region_iou;
+                       options.confidence_region_iou_weight * region_iou +
+                       options.confidence_colour_weight * colour_term;
   return 1.0 / (1.0 + std::exp(-logit));
 }
 
@@ -605,7 +606,8 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
           trial.region_iou = MaskIntersectionOverUnion(detection.result.corrected_mask, detection.region);
         }
         if (detection.result.success) {
-          detection.result.confidence = DetectionConfidence(options, detection.result, detection.check, trial.region_iou);
+          detection.result.confidence = DetectionConfidence(options, detection.result, detection.check, trial.region_iou,
+                                                             trial.colour_term);
         }
         return detection;
       };

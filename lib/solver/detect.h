@@ -83,10 +83,12 @@ struct FrameCheck {
 FrameCheck CheckAgainstFrame(const Frame& frame, const TemplateBank& bank, const Eigen::Isometry3d& cam_from_object,
                              double surface_m, double step_m);
 
-/// The confidence of an answer with `result` (S_A, ambiguous), `check` and `region_iou`
-/// (DetectOptions::confidence_*), in [0, 1].
+/// The confidence of an answer with `result` (S_A, ambiguous), `check` (the frame at the
+/// pose), `region_iou` and the region's
+/// `colour_term` (CandidateTrial; 0.5 for a model without colour) (DetectOptions::
+/// confidence_*), in [0, 1].
 double DetectionConfidence(const DetectOptions& options, const PoseResult& result, const FrameCheck& check,
-                           double region_iou);
+                           double region_iou, double colour_term);
 
 /// One answer.
 struct Detection {

@@ -48,7 +48,8 @@ std::string DetectOptions::Check() const {
   else if (!(min_confidence >= 0.0 && min_confidence <= 1.0)) out << "DetectOptions.min_confidence must be in [0, 1] (got " << min_confidence << ")";
   else if (!(std::isfinite(confidence_bias) && std::isfinite(confidence_score_weight) && std::isfinite(confidence_ambiguous_weight) &&
              std::isfinite(confidence_on_surface_weight) && std::isfinite(confidence_free_space_weight) &&
-             std::isfinite(confidence_contour_weight) && std::isfinite(confidence_region_iou_weight))) {
+             std::isfinite(confidence_contour_weight) && std::isfinite(confidence_region_iou_weight) &&
+             std::isfinite(confidence_colour_weight))) {
     out << "DetectOptions.confidence_* must be finite";
   }
   else if (!(ppf_contour_step_m >= 0.0)) out << "DetectOptions.ppf_contour_step_m must be >= 0 (got " << ppf_contour_step_m << ")";

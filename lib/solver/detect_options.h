@@ -168,27 +168,31 @@ struct DetectOptions {
   /// An answer's confidence (PoseResult::confidence of a Detection): the probability that it
   /// is right, a logistic in what the answer has, fitted on the answers of every dev set
   /// without masks, absent objects asked for too (scripts/calibrate_detection.py;
-  /// bench/RESULTS.md, "Detection's confidence"):
+  /// bench/RESULTS.md, "A confidence that knows"):
   ///   1 / (1 + exp(-(bias + score · S_A + ambiguous · [ambiguous] + on_surface ·
   ///   FrameCheck::on_surface + free_space · FrameCheck::free_space + contour ·
-  ///   FrameCheck::contour_support + region_iou · IoU(corrected mask, region)))).
+  ///   FrameCheck::contour_support + region_iou · IoU(corrected mask, region) + colour ·
+  ///   CandidateTrial::colour_term))).
   /// S_A alone says little here: a pose laid onto the wrong region explains that region;
-  /// the frame around it says more.
-  /// Fitted on 804 answers (synth_dev, LM-O, real YCB-V; leave-one-object-out ECE 0.035,
-  /// answers wrong with confidence >= 0.9: 10, against 68 for the calibration of S_A alone).
-  double confidence_bias = -7.296;
-  double confidence_score_weight = -11.569;
-  double confidence_ambiguous_weight = -2.950;
-  double confidence_on_surface_weight = 6.322;
-  double confidence_free_space_weight = -4.489;
-  double confidence_contour_weight = 3.204;
-  double confidence_region_iou_weight = 5.358;
-  /// An answer less confident than this (about 9 in 10 such answers are wrong) is no
-  /// answer: a request for an object that is not there mostly gets none (the service's
-  /// STATUS_NO_SOLUTION). A trade: on synth_dev without masks 0 / 0.1 / 0.3 answered 42% /
-  /// 70% / 77% of the requests for absent objects with no answer, and found 43.7% / 42.2% /
-  /// 41.0% of the objects there (bench/RESULTS.md, "Detection's confidence").
-  double min_confidence = 0.1;
+  /// the frame around it says more, and so does the region's colour: an object asked for
+  /// that is not there is mostly answered on another object's region (colour_term 0.5 for a
+  /// model without colour, so bare metal is neither helped nor hurt).
+  /// Fitted on 837 answers (synth_dev, LM-O, real YCB-V; leave-one-object-out ECE 0.020,
+  /// answers wrong with confidence >= 0.9: 9).
+  double confidence_bias = -12.720;
+  double confidence_score_weight = -10.977;
+  double confidence_ambiguous_weight = -2.022;
+  double confidence_on_surface_weight = 8.316;
+  double confidence_free_space_weight = 0.230;
+  double confidence_contour_weight = 3.923;
+  double confidence_region_iou_weight = 5.176;
+  double confidence_colour_weight = 6.123;
+  /// An answer less likely right than wrong is no answer: a request for an object that is
+  /// not there mostly gets none (the service's STATUS_NO_SOLUTION). A trade: on synth_dev
+  /// without masks 0.1 / 0.5 answered 75% / 90% of the requests for absent objects with no
+  /// answer and found 52.9% / 52.7% of the objects there; on LM-O 91.8% / 90.9%
+  /// (bench/RESULTS.md, "A confidence that knows").
+  double min_confidence = 0.5;
 
   /// Empty when valid, else names the bad field.
   std::string Check() const;

@@ -38,7 +38,7 @@ void ExplainAwayNeighbours(const Frame& frame, const std::vector<Instance>& inst
     cv::Mat explained = cv::Mat::zeros(given.size(), CV_8U);
     for (size_t j = 0; j < first.size(); ++j) {
       const PoseResult& other = first[j];
-      if (j == i || !other.success || other.confidence < options.region_search_confidence) continue;
+      if (j == i || !other.success || UnsureOfScore(options, other.score, other.ambiguous)) continue;
       if (first[i].success && !(other.score < first[i].score)) continue;
       if (other.corrected_mask.size() != given.size() || other.corrected_mask.type() != CV_8U) continue;
       explained |= other.corrected_mask;

@@ -23,7 +23,7 @@ namespace g6d {
 /// Second pass over a frame's answers (SolverOptions::explain_neighbours, MaskTrust::kDepth):
 /// `instances[i]`, solved with `banks[i]` into `(*answers)[i]` (EstimatePose, or any solve
 /// that fills corrected_mask), is solved again on its mask less the pixels of the confident
-/// answers of lower S_A of the other instances (confidence >= region_search_confidence),
+/// answers of lower S_A of the other instances (not UnsureOfScore),
 /// when its mask holds more than the object (a merged mask, a box) or its answer is unsure,
 /// and the neighbours explain at least `SolverOptions::neighbour_min_fraction` of its mask.
 /// A lower S_A replaces the answer (StageReport::neighbour_pixels, neighbour_answer_chosen,

@@ -49,4 +49,9 @@ double ConfidenceFromScore(const SolverOptions& options, double score, bool ambi
   return 1.0 / (1.0 + std::exp(-logit));
 }
 
+bool UnsureOfScore(const SolverOptions& options, double score, bool ambiguous) {
+  if (!std::isfinite(score)) return true;
+  return score > (ambiguous ? options.unsure_ambiguous_score : options.unsure_score);
+}
+
 }  // namespace g6d

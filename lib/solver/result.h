@@ -164,4 +164,9 @@ struct PoseResult {
 /// lower when ambiguous).
 double ConfidenceFromScore(const SolverOptions& options, double score, bool ambiguous);
 
+/// Whether a successful answer with S_A `score` is unsure (SolverOptions::unsure_score,
+/// unsure_ambiguous_score): worth a second reading of its mask, and no evidence for its
+/// neighbours. Not finite: unsure.
+bool UnsureOfScore(const SolverOptions& options, double score, bool ambiguous);
+
 }  // namespace g6d

@@ -23,7 +23,8 @@ std::string SolverOptions::Check() const {
   if (num_hypotheses < 1) out << "SolverOptions.num_hypotheses must be >= 1 (got " << num_hypotheses << ")";
   else if (ppf_hypotheses < 0) out << "SolverOptions.ppf_hypotheses must be >= 0 (got " << ppf_hypotheses << ")";
   else if (region_candidates < 0 || region_candidates > 16) out << "SolverOptions.region_candidates must be in [0, 16] (got " << region_candidates << ")";
-  else if (!(region_search_confidence >= 0.0 && region_search_confidence <= 1.0)) out << "SolverOptions.region_search_confidence must be in [0, 1] (got " << region_search_confidence << ")";
+  else if (!(unsure_score >= 0.0 && std::isfinite(unsure_score))) out << "SolverOptions.unsure_score must be finite and >= 0 (got " << unsure_score << ")";
+  else if (!(unsure_ambiguous_score >= 0.0 && std::isfinite(unsure_ambiguous_score))) out << "SolverOptions.unsure_ambiguous_score must be finite and >= 0 (got " << unsure_ambiguous_score << ")";
   else if (!(neighbour_min_fraction > 0.0 && neighbour_min_fraction <= 1.0)) out << "SolverOptions.neighbour_min_fraction must be in (0, 1] (got " << neighbour_min_fraction << ")";
   else if (max_search_regions < 0 || max_search_regions > 8) out << "SolverOptions.max_search_regions must be in [0, 8] (got " << max_search_regions << ")";
   else if (max_observed_points < 10) out << "SolverOptions.max_observed_points must be >= 10 (got " << max_observed_points << ")";

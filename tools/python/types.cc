@@ -315,7 +315,7 @@ void BindOptions(py::module_& module) {
                     "documented there). The defaults are the service's and g6d-solve's; K = num_hypotheses.")
         G6D_FIELD(query_orb) G6D_FIELD(mask_trust) G6D_FIELD(region) G6D_FIELD(segments)
         G6D_FIELD(split_merged_at_creases) G6D_FIELD(max_search_regions) G6D_FIELD(region_candidates)
-        G6D_FIELD(region_search_confidence) G6D_FIELD(explain_neighbours) G6D_FIELD(neighbour_min_fraction)
+        G6D_FIELD(unsure_score) G6D_FIELD(unsure_ambiguous_score) G6D_FIELD(explain_neighbours) G6D_FIELD(neighbour_min_fraction)
         G6D_FIELD(mask_refine_rounds) G6D_FIELD(match) G6D_FIELD(pnp) G6D_FIELD(use_ppf) G6D_FIELD(ppf)
         G6D_FIELD(ppf_hypotheses) G6D_FIELD(num_hypotheses) G6D_FIELD(score)
         G6D_FIELD(selection_grid) G6D_FIELD(refine_grid) G6D_FIELD(icp) G6D_FIELD(run_icp)
@@ -358,7 +358,8 @@ void BindOptions(py::module_& module) {
         G6D_FIELD(ppf_contour_step_m) G6D_FIELD(max_free_space) G6D_FIELD(free_space_fraction)
         G6D_FIELD(min_contour_support) G6D_FIELD(confidence_bias) G6D_FIELD(confidence_score_weight)
         G6D_FIELD(confidence_ambiguous_weight) G6D_FIELD(confidence_on_surface_weight) G6D_FIELD(confidence_free_space_weight)
-        G6D_FIELD(confidence_contour_weight) G6D_FIELD(confidence_region_iou_weight) G6D_FIELD(min_confidence).Done();
+        G6D_FIELD(confidence_contour_weight) G6D_FIELD(confidence_region_iou_weight) G6D_FIELD(confidence_colour_weight)
+        G6D_FIELD(min_confidence).Done();
   }
   {
     using T = ViewSamplingOptions;

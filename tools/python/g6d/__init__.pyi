@@ -179,7 +179,8 @@ class SolverOptions(_Options):
     split_merged_at_creases: bool
     max_search_regions: int
     region_candidates: int
-    region_search_confidence: float
+    unsure_score: float
+    unsure_ambiguous_score: float
     explain_neighbours: bool
     neighbour_min_fraction: float
     mask_refine_rounds: int
@@ -285,6 +286,7 @@ class DetectOptions(_Options):
     confidence_free_space_weight: float
     confidence_contour_weight: float
     confidence_region_iou_weight: float
+    confidence_colour_weight: float
     min_confidence: float
 
 class ViewSamplingOptions(_Options):
