@@ -41,7 +41,10 @@ PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, con
   DetectOptions detect;
   detect.extra_candidates = options.region_candidates - 1;
   detect.explain_away_passes = 0;
-  detect.max_score = 1e9;  // the best region's answer is compared with the mask's, whatever its S_A
+  // The best region's answer is compared with the mask's by S_A, whatever its S_A or its
+  // confidence as a detection (detection's floor is for answers found without a mask).
+  detect.max_score = 1e9;
+  detect.min_confidence = 0.0;
   // Inside one mask there are few segments: unions of up to 4 (a drill's handle, body and
   // battery split at their own creases, and a fragment) cost little. On LM-O merged masks
   // 93.5% against 93.3% with 3, boxes 92.4% against 91.8% (bench/RESULTS.md, issue 22).
@@ -72,6 +75,8 @@ PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, con
     // The answer's stage counts and poses are its own solve's; the times are of the work
     // this instance cost: the solve on the mask, then the regions.
     CopyMaskSolveReport(stages, &chosen.stages);
+    // An answer to a mask: the mask path's calibration of S_A, like every other one.
+    chosen.confidence = ConfidenceFromScore(options, chosen.score, chosen.ambiguous);
     StageReport& merged = chosen.stages;
     merged.total_ms = stages.total_ms;
     merged.depth_regions_solved = stages.depth_regions_solved;
