@@ -178,8 +178,13 @@ TEST(SampleAppearance, VertexColoursAreInterpolatedBarycentrically) {
   ASSERT_EQ(model.colors.size(), 200u);
   for (size_t i = 0; i < model.points.size(); ++i) {
     const Eigen::Vector3f& p = model.points[i];
-    EXPECT_TRUE(model.colors[i].isApprox(Eigen::Vector3f(1 - p.x() - p.y(), p.x(), p.y()), 1e-5f))
+    const Eigen::Vector3f expected(1 - p.x() - p.y(), p.x(), p.y());
+    EXPECT_LE((model.colors[i] - expected).cwiseAbs().maxCoeff(), 0.5f / 255.0f + 1e-6f)  // 8-bit grid
         << "point " << p.transpose() << " colour " << model.colors[i].transpose();
+    for (int c = 0; c < 3; ++c) {
+      const float byte = model.colors[i][c] * 255.0f;
+      EXPECT_EQ(byte, std::round(byte)) << "colour " << model.colors[i].transpose() << " is not on the 8-bit grid";
+    }
   }
 }
 

@@ -174,6 +174,25 @@ TEST(BuildTemplateBank, SameBytesForAnyThreadCount) {
   EXPECT_TRUE(a == b) << "banks differ between 1 and 2 threads";
 }
 
+// A bank just built answers as the same bank saved and loaded: the cache keeps colours in
+// 8 bits, so the build rounds them the same way (the Python module found objects with the
+// built bank and g6d-solve with the loaded one; their confidences differed in the 4th digit).
+TEST(BuildTemplateBank, ColoursSurviveTheCacheExactly) {
+  const Mesh mesh = CheckerBox(Eigen::Vector3f(0.03f, 0.03f, 0.05f), 10, 3);
+  InlineExecutor executor;
+  const TemplateBank built = BuildTemplateBank(mesh, "box", FewViews(), &executor);
+  const std::string path = test::TempDir("bank_colours") + "/bank.g6dcache";
+  WriteTemplateCache(built, path);
+  const TemplateBank loaded = ReadTemplateCache(path);
+  ASSERT_FALSE(built.appearance.colors.empty()) << "the checker box should have a colour model";
+  ASSERT_EQ(built.appearance.colors.size(), loaded.appearance.colors.size());
+  size_t differing = 0;
+  for (size_t i = 0; i < built.appearance.colors.size(); ++i) {
+    if (built.appearance.colors[i] != loaded.appearance.colors[i]) ++differing;
+  }
+  EXPECT_EQ(differing, 0u) << "of " << built.appearance.colors.size() << " colours";
+}
+
 // Two builds on one pool: the pool's worker threads outlive the first build's GL contexts,
 // so no context may stay current on a worker after the build returns (it used to, and the
 // second build crashed inside OSMesaMakeCurrent on the destroyed context).

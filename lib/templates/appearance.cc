@@ -282,6 +282,12 @@ AppearanceModel SampleAppearance(const Mesh& mesh, const AppearanceOptions& opti
                                     w2 * mesh.colors[face[2]].cast<double>();
       model.colors.push_back(color.cast<float>());
     }
+    // The cache stores 8-bit colours: keep them on that grid here, so a bank just built
+    // answers exactly as the same bank saved and loaded.
+    for (int i = 0; i < 3; ++i) {
+      float& c = model.colors.back()[i];
+      c = static_cast<float>(std::lround(std::clamp(c, 0.0f, 1.0f) * 255.0f)) / 255.0f;
+    }
   }
 
   // A (nearly) uniform colour cannot tell poses apart: report the model as untextured.

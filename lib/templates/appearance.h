@@ -94,7 +94,8 @@ struct AppearanceOptions {
 /// Samples the surface of `mesh` (metres, object frame) with colours: area-weighted faces
 /// (deterministic for options.seed), uniform points in each, the colour from the texture
 /// (UV interpolated over the face, OBJ convention with v up, bilinear) when the mesh has
-/// one, else interpolated from the three vertex colours. Returns an empty model when the
+/// one, else interpolated from the three vertex colours, rounded to 8 bits per channel (the
+/// cache's precision, so a saved and loaded model equals this one). Returns an empty model when the
 /// mesh has neither texture nor vertex colours, or when its colours are (nearly) uniform
 /// (options.min_color_std). Throws g6d::Error for invalid options, out-of-range face indices,
 /// a texture that is not CV_8UC3 or a coloured mesh without any face of positive area.
