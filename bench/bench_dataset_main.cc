@@ -274,6 +274,18 @@ int main(int argc, char** argv) {
   app.add_option("--detect-extra", detect_options.extra_candidates,
                  "--masks none: candidate regions solved per object beyond its count")
       ->capture_default_str();
+  app.add_option("--detect-solve-hypotheses", detect_options.max_solve_hypotheses,
+                 "--masks none: hypotheses kept in a candidate region's solve (min with --hypotheses; 0 = --hypotheses)")
+      ->capture_default_str();
+  app.add_option("--detect-solve-pnp-quality", detect_options.solve_pnp_min_quality,
+                 "--masks none: a candidate region's solve runs PnP on sets with Q_j >= this fraction of Q_1")
+      ->capture_default_str();
+  app.add_option("--detect-passes", detect_options.explain_away_passes,
+                 "--masks none: explaining-away passes after the first (answers' pixels taken out, the rest solved again)")
+      ->capture_default_str();
+  app.add_option("--detect-found-passes", detect_options.found_object_passes,
+                 "--masks none: further passes for the objects already found that want more")
+      ->capture_default_str();
   app.add_option("--detect-colour-weight", detect_options.colour_weight,
                  "--masks none: weight of the colour agreement in the ranking of candidate regions")
       ->capture_default_str();

@@ -333,6 +333,52 @@ TEST_F(DetectTest, AnObjectThatIsNotThereGetsNoAnswer) {
   }
 }
 
+TEST_F(DetectTest, OnlyObjectsAlreadyFoundGetTheFurtherPasses) {
+  // One box on the table; two boxes and a bar asked for. The box is found and wants one
+  // more: it gets the found-object passes. The bar is not there: no pass after the
+  // explaining-away pass ranks a region for it.
+  const Scene scene = RenderScene({&Box()}, {OnTable(Box(), 0.0, 0.3)}, 11);
+  ThreadPool pool(2);
+  DetectOptions options;
+  options.explain_away_passes = 1;
+  options.found_object_passes = 2;
+  DetectionReport report;
+  const std::vector<Detection> detections =
+      DetectObjects(scene.frame, {{&Box().bank, 2}, {&Bar().bank, 1}}, QuickSolver(), options, &pool, &report);
+  ASSERT_TRUE(report.success) << report.message;
+  ASSERT_EQ(detections.size(), 1u) << report.message;
+  EXPECT_EQ(detections[0].object_id, Box().id);
+  EXPECT_EQ(report.explain_away_passes, 3) << report.message;
+  int bar_trials = 0;
+  for (const CandidateTrial& trial : report.trials) {
+    if (trial.request != 1) continue;
+    ++bar_trials;
+    EXPECT_LE(trial.pass, options.explain_away_passes) << "the bar, never found, was ranked in a found-object pass";
+  }
+  EXPECT_GT(bar_trials, 0) << "the bar was never ranked: the test shows nothing";
+  options.found_object_passes = 0;
+  DetectObjects(scene.frame, {{&Box().bank, 2}, {&Bar().bank, 1}}, QuickSolver(), options, &pool, &report);
+  EXPECT_EQ(report.explain_away_passes, 1) << report.message;
+}
+
+TEST_F(DetectTest, CandidateSolvesKeepAtMostTheirOwnK) {
+  const Scene scene = RenderScene({&Box()}, {OnTable(Box(), 0.0, 0.3)}, 11);
+  ThreadPool pool(2);
+  SolverOptions solver = QuickSolver();
+  solver.use_ppf = false;  // only the PnP poses fill the K slots
+  DetectOptions options;
+  options.max_solve_hypotheses = 0;  // the solver's K (8)
+  options.solve_pnp_min_quality = 0.0;  // PnP on every set: many distinct poses
+  const std::vector<Detection> all = DetectObjects(scene.frame, {{&Box().bank, 1}}, solver, options, &pool, nullptr);
+  ASSERT_EQ(all.size(), 1u);
+  EXPECT_GT(all[0].result.stages.kept_poses.size(), 2u) << "too few PnP poses to tell the cap";
+  options.max_solve_hypotheses = 2;
+  const std::vector<Detection> capped = DetectObjects(scene.frame, {{&Box().bank, 1}}, solver, options, &pool, nullptr);
+  ASSERT_EQ(capped.size(), 1u);
+  EXPECT_LE(capped[0].result.stages.kept_poses.size(), 2u);
+  EXPECT_LT(AddOf(capped[0], Box(), scene.poses[0]), 0.1 * Box().bank.diameter_m);
+}
+
 TEST_F(DetectTest, AnEmptyTableGivesNoAnswerAndSolvesNothing) {
   const Scene scene = RenderScene({}, {}, 5);
   ThreadPool pool(2);
@@ -436,6 +482,15 @@ TEST(DetectOptions, CheckNamesTheBadField) {
   options = DetectOptions();
   options.shape_references = 0;
   EXPECT_NE(options.Check().find("shape_references"), std::string::npos);
+  options = DetectOptions();
+  options.found_object_passes = -1;
+  EXPECT_NE(options.Check().find("found_object_passes"), std::string::npos);
+  options = DetectOptions();
+  options.max_solve_hypotheses = -1;
+  EXPECT_NE(options.Check().find("max_solve_hypotheses"), std::string::npos);
+  options = DetectOptions();
+  options.solve_pnp_min_quality = 1.5;
+  EXPECT_NE(options.Check().find("solve_pnp_min_quality"), std::string::npos);
 }
 
 TEST(DetectionConfidence, RisesWithWhatTheFrameConfirmsAndFallsWithS) {

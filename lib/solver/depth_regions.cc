@@ -41,6 +41,7 @@ PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, con
   DetectOptions detect;
   detect.extra_candidates = options.region_candidates - 1;
   detect.explain_away_passes = 0;
+  detect.found_object_passes = 0;
   // The best region's answer is compared with the mask's by S_A, whatever its S_A; but a
   // region answer very unlikely right as a detection (under 0.1) is no candidate, by the
   // detection calibration this search was measured with (issue 31's first fit: S_A, the
@@ -61,6 +62,9 @@ PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, con
   // battery split at their own creases, and a fragment) cost little. On LM-O merged masks
   // 93.5% against 93.3% with 3, boxes 92.4% against 91.8% (bench/RESULTS.md, issue 22).
   detect.max_union_segments = 4;
+  // The regions inside a mask are solved as the mask is (its K, PnP on every set).
+  detect.max_solve_hypotheses = 0;
+  detect.solve_pnp_min_quality = 0.0;
   SolverOptions region_options = options;
   region_options.region_candidates = 0;  // a region of the depth holds one object
   if (options.budget_ms > 0.0) {

@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <map>
+#include <mutex>
 #include <numeric>
 #include <set>
 #include <sstream>
@@ -351,6 +352,10 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
   SolverOptions solve_options = solver_options;
   solve_options.mask_trust = MaskTrust::kDepth;
   solve_options.region_candidates = 0;  // a region of the depth is solved as it is
+  if (options.max_solve_hypotheses > 0) {
+    solve_options.num_hypotheses = std::min(solve_options.num_hypotheses, options.max_solve_hypotheses);
+  }
+  solve_options.pnp_min_quality_ratio = std::max(solve_options.pnp_min_quality_ratio, options.solve_pnp_min_quality);
   cv::Mat first_region = out.support == 0;
   // Requests that all say where their object is: only the area around their `within` is
   // segmented, grown by its longer side and by the object's size in pixels at the nearest
@@ -391,7 +396,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
   // Per request, the pixels of the regions solved in earlier passes: a later pass does not
   // solve the same pixels again (a region nothing was taken from comes back unchanged).
   std::vector<std::vector<cv::Mat>> solved_regions(requests.size());
-  for (int pass = 0; pass <= options.explain_away_passes; ++pass) {
+  for (int pass = 0; pass <= options.explain_away_passes + options.found_object_passes; ++pass) {
     cv::Mat region = first_region.clone();
     cv::Mat island_region = first_region | out.raised;  // islands: with the thin parts lying on the support
     if (pass > 0) {
@@ -577,6 +582,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
         int trial;
       };
       std::vector<Job> jobs;
+      std::mutex stage_mutex;
       for (size_t r = 0; r < requests.size(); ++r) {
         for (int t : chosen[r]) jobs.push_back({r, t});
       }
@@ -593,10 +599,20 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
         // (solve_options.region_candidates is 0), so detection sits below EstimatePose.
         detection.result = EstimatePoseOnMask(frame, {detection.object_id, detection.region},
                                               *requests[job.request].bank, solve_options, executor);
+        const Stopwatch check_watch;
         if (detection.result.success) {
           const TemplateBank& bank = *requests[job.request].bank;
           detection.check = CheckAgainstFrame(frame, bank, detection.result.cam_from_object,
                                               options.free_space_fraction * bank.diameter_m, options.ppf_contour_step_m);
+        }
+        {
+          const std::lock_guard<std::mutex> lock(stage_mutex);
+          const std::vector<StageTime> times = StageTimes(detection.result.stages);
+          if (out.solve_stages.empty()) {
+            for (const StageTime& time : times) out.solve_stages.push_back({time.name, 0.0});
+          }
+          for (size_t i = 0; i < times.size(); ++i) out.solve_stages[i].ms += times[i].ms;
+          out.check_ms += check_watch.ElapsedMs();
         }
         trial.solved = true;
         trial.success = detection.result.success;
@@ -656,6 +672,8 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
       int answered = 0;
       for (const Detection& detection : detections) answered += detection.request == static_cast<int>(r);
       wanted[r] = requests[r].count - answered;
+      // Past the explaining-away passes, only objects found already look for more.
+      if (pass + 1 > options.explain_away_passes && answered == 0) wanted[r] = 0;
       missing = missing || wanted[r] > 0;
     }
     if (!missing || detections.empty()) break;  // all found, or nothing to explain away

@@ -127,6 +127,11 @@ struct DetectionReport {
   int suppressed = 0;               ///< solved answers dropped by S_A, the overlap or the count
   int ppf_regions = 0;              ///< regions from the point-pair-feature vote
   double shape_ms = 0.0;            ///< the shape term's vote (part of rank_ms)
+  /// Inside solve_ms: the solves' stage times (StageTimes names: prepare ... mask_refine,
+  /// total) summed over every solve, and the frame checks' time. Solves run side by side on
+  /// the executor, so these sums exceed solve_ms on more than one thread.
+  std::vector<StageTime> solve_stages;
+  double check_ms = 0.0;
   double support_ms = 0.0, segment_ms = 0.0, propose_ms = 0.0, ppf_ms = 0.0, rank_ms = 0.0, solve_ms = 0.0,
          select_ms = 0.0, total_ms = 0.0;
 };

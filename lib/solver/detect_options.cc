@@ -29,6 +29,9 @@ std::string DetectOptions::Check() const {
   else if (!(min_extent_fraction >= 0.0 && min_extent_fraction < 1.0)) out << "DetectOptions.min_extent_fraction must be in [0, 1) (got " << min_extent_fraction << ")";
   else if (!(min_area_fraction >= 0.0 && min_area_fraction < 1.0)) out << "DetectOptions.min_area_fraction must be in [0, 1) (got " << min_area_fraction << ")";
   else if (extra_candidates < 0) out << "DetectOptions.extra_candidates must be >= 0 (got " << extra_candidates << ")";
+  else if (found_object_passes < 0) out << "DetectOptions.found_object_passes must be >= 0 (got " << found_object_passes << ")";
+  else if (max_solve_hypotheses < 0) out << "DetectOptions.max_solve_hypotheses must be >= 0 (got " << max_solve_hypotheses << ")";
+  else if (!(solve_pnp_min_quality >= 0.0 && solve_pnp_min_quality <= 1.0)) out << "DetectOptions.solve_pnp_min_quality must be in [0, 1] (got " << solve_pnp_min_quality << ")";
   else if (!(colour_weight >= 0.0 && colour_weight <= 1.0)) out << "DetectOptions.colour_weight must be in [0, 1] (got " << colour_weight << ")";
   else if (!(accept_confidence >= 0.0 && accept_confidence <= 1.0)) out << "DetectOptions.accept_confidence must be in [0, 1] (got " << accept_confidence << ")";
   else if (!(accept_region_iou >= 0.0 && accept_region_iou <= 1.0)) out << "DetectOptions.accept_region_iou must be in [0, 1] (got " << accept_region_iou << ")";

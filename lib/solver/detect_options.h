@@ -86,6 +86,18 @@ struct DetectOptions {
   /// bench/RESULTS.md, issue 23). The explaining-away pass gives an object without an
   /// answer a second chance.
   int extra_candidates = 1;
+  /// The solve of a candidate region keeps at most this many hypotheses after observable
+  /// selection (min with SolverOptions::num_hypotheses; 0 = the solver's K), and runs
+  /// MSAC-PnP only on the correspondence sets whose quality Q_j is at least
+  /// `solve_pnp_min_quality` of the best (SolverOptions::pnp_min_quality_ratio; the larger
+  /// of the two). Most candidates hold no instance (in synth_dev's bins 73% of the regions
+  /// solved), and the point-pair-feature poses keep their own slots. Measured without masks
+  /// (bench/RESULTS.md, "Detection's solves"): synth_dev 52.7% at K = 18 and at K = 12 with
+  /// PnP on sets of Q_j >= 0.5 Q_1, p50 per image 1920 -> 1465 ms; K = 6: 52.9%, 1370 ms,
+  /// but the real YCB-V clutter's AR fell from 0.824 to 0.750 (textured objects' poses are
+  /// more precise with more PnP starts; K = 12 keeps 0.824).
+  int max_solve_hypotheses = 12;
+  double solve_pnp_min_quality = 0.5;
   /// Ranking: weight of the colour agreement against the size agreement (0 = size only).
   /// The colour term is the Bhattacharyya coefficient of chromaticity histograms of the
   /// region's pixels and the cache's appearance samples (neutral 0.5 for an uncoloured
@@ -124,6 +136,12 @@ struct DetectOptions {
   /// touch without a crease between them form one region too large for either; once the one
   /// found elsewhere (or in a region of its own) is taken out, the other stands alone.
   int explain_away_passes = 1;
+  /// ... and then at most this many further passes for the objects that already have an
+  /// answer and want more (a bin of one part: each pass takes the found parts out of the
+  /// pile, and the parts that touched them stand alone). An object with no answer yet gets
+  /// no further pass: it may not be there at all, and every pass is another chance for a
+  /// confident guess.
+  int found_object_passes = 2;
   /// An answer whose S_A is above this is no answer (confidence about 1% at the defaults).
   double max_score = 0.35;
   /// Non-maximum suppression: an answer whose corrected mask shares more than this fraction

@@ -267,6 +267,9 @@ class DetectOptions(_Options):
     accept_region_iou: float
     fill_gap_px: int
     explain_away_passes: int
+    found_object_passes: int
+    max_solve_hypotheses: int
+    solve_pnp_min_quality: float
     max_score: float
     max_overlap: float
     ppf_extra: int
