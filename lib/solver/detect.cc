@@ -316,6 +316,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
   DetectionReport local_report;
   DetectionReport& out = report ? *report : local_report;
   out = DetectionReport();
+  out.solve_stages = StageTimes(StageReport());  // every stage's name, 0 ms
   const Stopwatch total_watch;
   if (requests.empty()) G6D_THROW("DetectObjects: no objects requested");
   for (size_t r = 0; r < requests.size(); ++r) {
@@ -606,11 +607,8 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
                                               options.free_space_fraction * bank.diameter_m, options.ppf_contour_step_m);
         }
         {
-          const std::lock_guard<std::mutex> lock(stage_mutex);
           const std::vector<StageTime> times = StageTimes(detection.result.stages);
-          if (out.solve_stages.empty()) {
-            for (const StageTime& time : times) out.solve_stages.push_back({time.name, 0.0});
-          }
+          const std::lock_guard<std::mutex> lock(stage_mutex);
           for (size_t i = 0; i < times.size(); ++i) out.solve_stages[i].ms += times[i].ms;
           out.check_ms += check_watch.ElapsedMs();
         }
