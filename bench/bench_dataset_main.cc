@@ -151,6 +151,11 @@ int main(int argc, char** argv) {
   app.add_option("--ppf-hypotheses", ppf_extra_hypotheses, "point-pair features: PPF poses refined beside the K PnP poses (-1 = default)");
   app.add_option("--ppf-peaks", ppf_options.peaks_per_reference, "point-pair features: peaks per reference point")
       ->capture_default_str();
+  bool no_silhouettes = false;
+  app.add_flag("--no-silhouettes", no_silhouettes, "no poses from the mask's outline (ablation)");
+  int silhouette_hypotheses = -1;
+  app.add_option("--silhouette-hypotheses", silhouette_hypotheses,
+                 "outline poses refined beside the K PnP and the PPF poses (-1 = default)");
   std::string mask_trust = "depth";
   app.add_option("--mask-trust", mask_trust, "how the mask is read: depth (evidence checked by the depth) or exact (the paper's; ablation)")
       ->capture_default_str();
@@ -280,6 +285,9 @@ int main(int argc, char** argv) {
   app.add_option("--detect-solve-pnp-quality", detect_options.solve_pnp_min_quality,
                  "--masks none: a candidate region's solve runs PnP on sets with Q_j >= this fraction of Q_1")
       ->capture_default_str();
+  app.add_option("--detect-solve-silhouettes", detect_options.solve_silhouettes,
+                 "--masks none: a candidate region's solve adds poses from the region's outline")
+      ->capture_default_str();
   app.add_option("--detect-passes", detect_options.explain_away_passes,
                  "--masks none: explaining-away passes after the first (answers' pixels taken out, the rest solved again)")
       ->capture_default_str();
@@ -340,6 +348,8 @@ int main(int argc, char** argv) {
     if (no_ppf) options.use_ppf = false;
     options.ppf = ppf_options;
     if (ppf_extra_hypotheses >= 0) options.ppf_hypotheses = ppf_extra_hypotheses;
+    if (no_silhouettes) options.use_silhouettes = false;
+    if (silhouette_hypotheses >= 0) options.silhouette_hypotheses = silhouette_hypotheses;
     if (no_occlusion) options.score.occlusion_margin_m = 0.0;
     options.mask_trust = g6d::ParseMaskTrust(mask_trust);
     options.split_merged_at_creases = crease_split;
@@ -417,6 +427,7 @@ int main(int argc, char** argv) {
                    "truncated,ambiguous,runner_up_gap,appearance_valid,appearance_agreement,appearance_changed,"
                    "gt_score,gt_iou,gt_depth_residual,gt_occluded_px,sets_tried,pnp_hypotheses,pnp_merged,kept,"
                    "icp_iterations,answer_set_rank,answer_quality_ratio,ppf_hypotheses,ppf_distinct,answer_from_ppf,"
+                   "silhouette_hypotheses,silhouette_distinct,answer_from_silhouette,"
                    "on_surface,free_space,contour_support,mask_iou,mask_wider,mask_is_box,depth_region_chosen,"
                    "neighbour_answer_chosen%s\n",
                    unknown_identity ? ",chosen_id,right_identity,true_object_score,best_other_id,best_other_score,"
@@ -507,10 +518,8 @@ int main(int argc, char** argv) {
           if (!objects.count(other.obj_id)) {
             objects.emplace(other.obj_id, g6d::bench::LoadBenchObject(dataset, other.obj_id, caches_dir, adds_ids));
           }
-          int found = 0;
-          for (size_t gt_idx = 0; gt_idx < bop_frame.gt.size() && found < other.inst_count; ++gt_idx) {
-            if (bop_frame.gt[gt_idx].obj_id != other.obj_id) continue;
-            ++found;
+          for (const int gt_index : g6d::TargetGtIndices(bop_frame, other.obj_id, other.inst_count)) {
+            const size_t gt_idx = static_cast<size_t>(gt_index);
             bool merged = false;
             const cv::Mat mask = solver_mask_of(scene, bop_frame, other, gt_idx, &merged);
             frame_masks[gt_idx] = {mask, merged};
@@ -526,11 +535,11 @@ int main(int argc, char** argv) {
         g6d::ExplainAwayNeighbours(frame, frame_instances, frame_banks, {}, options, &pool, &frame_results);
         for (size_t k = 0; k < gt_indices.size(); ++k) frame_answers[gt_indices[k]] = std::move(frame_results[k]);
       }
-      int instances = 0;
-      for (size_t gt_idx = 0; gt_idx < bop_frame.gt.size() && instances < target.inst_count; ++gt_idx) {
+      // The instances the target asks for: its inst_count most visible (BOP's rule; a hidden
+      // copy of an object seen twice is not asked for).
+      for (const int gt_index : g6d::TargetGtIndices(bop_frame, target.obj_id, target.inst_count)) {
+        const size_t gt_idx = static_cast<size_t>(gt_index);
         const g6d::BopGtInstance& gt = bop_frame.gt[gt_idx];
-        if (gt.obj_id != target.obj_id) continue;
-        ++instances;
         if (seen++ % every != 0) continue;
         const cv::Mat gt_mask =
             g6d::LoadBopMaskVisib(scene, target.im_id, static_cast<int>(gt_idx));
@@ -654,6 +663,8 @@ int main(int argc, char** argv) {
           std::fprintf(records, "%d,%d,%d,%d,%d,%d,%.4f", s.sets_tried, s.pnp_hypotheses, s.pnp_merged, s.kept_hypotheses,
                        s.icp_iterations, s.answer_set_rank, s.answer_quality_ratio);
           std::fprintf(records, ",%d,%d,%d", s.ppf_hypotheses, s.ppf_distinct, s.answer_from_ppf ? 1 : 0);
+          std::fprintf(records, ",%d,%d,%d", s.silhouette_hypotheses, s.silhouette_distinct,
+                       s.answer_from_silhouette ? 1 : 0);
           if (result.success && !unknown_identity) {
             // The answer against the whole frame (as detection's answers are checked).
             const g6d::DetectOptions frame_check;
@@ -694,6 +705,8 @@ int main(int argc, char** argv) {
         counts["PPF poses"].push_back(s.ppf_hypotheses);
         counts["PPF poses new to PnP"].push_back(s.ppf_distinct);
         counts["answers from a PPF pose"].push_back(s.answer_from_ppf ? 1 : 0);
+        counts["outline poses new to PnP and PPF"].push_back(s.silhouette_distinct);
+        counts["answers from an outline pose"].push_back(s.answer_from_silhouette ? 1 : 0);
         counts["kept (K)"].push_back(s.kept_hypotheses);
         counts["ICP iterations"].push_back(s.icp_iterations);
         counts["ICP runs at the iteration limit"].push_back(s.icp_runs_at_max);
@@ -830,6 +843,15 @@ int main(int argc, char** argv) {
     for (const char* count : {"sets tried", "PnP poses", "distinct PnP poses", "kept (K)", "ICP iterations", "ICP runs at the iteration limit"}) {
       std::printf("| %s | %.0f | %.0f |\n", count, Percentile(counts[count], 0.5), Percentile(counts[count], 0.95));
     }
+    // Where the answers came from (every instance counted, failures as from none).
+    auto share = [&](const char* count) {
+      const std::vector<double>& values = counts[count];
+      double sum = 0.0;
+      for (double v : values) sum += v;
+      return values.empty() ? 0.0 : 100.0 * sum / values.size();
+    };
+    std::printf("\nanswers from a point-pair-feature pose: %.1f%%; from an outline pose: %.1f%%\n",
+                share("answers from a PPF pose"), share("answers from an outline pose"));
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "g6d-bench-dataset: error: %s\n", e.what());

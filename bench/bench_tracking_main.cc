@@ -243,11 +243,9 @@ int RunPerturb(const g6d::BopDataset& dataset, const std::string& dataset_dir, O
     const ObjectData& object = objects->Get(target.obj_id);
     g6d::Frame frame;
     bool loaded = false;
-    int count = 0;
-    for (size_t gt_idx = 0; gt_idx < bop_frame.gt.size() && count < target.inst_count; ++gt_idx) {
+    for (const int gt_index : g6d::TargetGtIndices(bop_frame, target.obj_id, target.inst_count)) {
+      const size_t gt_idx = static_cast<size_t>(gt_index);
       const g6d::BopGtInstance& gt = bop_frame.gt[gt_idx];
-      if (gt.obj_id != target.obj_id) continue;
-      ++count;
       if (seen++ % every != 0) continue;
       if (!loaded) frame = LoadFrame(scene, target.im_id), loaded = true;
       const g6d::Instance instance{object.bank.object_id, g6d::LoadBopMaskVisib(scene, target.im_id, static_cast<int>(gt_idx))};

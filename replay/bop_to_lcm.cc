@@ -161,13 +161,10 @@ std::vector<int> SelectInstances(const BopFrame& frame, int scene_id,
   std::set<int> chosen;
   for (const BopTarget& target : *targets) {
     if (target.scene_id != scene_id || target.im_id != frame.im_id) continue;
-    int found = 0;
-    for (size_t i = 0; i < frame.gt.size() && found < target.inst_count; ++i) {
-      if (frame.gt[i].obj_id != target.obj_id) continue;
-      chosen.insert(static_cast<int>(i));
-      ++found;
-    }
-    if (missing != nullptr) *missing += target.inst_count - found;
+    // The target's inst_count most visible instances (BOP's rule, TargetGtIndices).
+    const std::vector<int> found = TargetGtIndices(frame, target.obj_id, target.inst_count);
+    chosen.insert(found.begin(), found.end());
+    if (missing != nullptr) *missing += target.inst_count - static_cast<int>(found.size());
   }
   return {chosen.begin(), chosen.end()};
 }

@@ -126,8 +126,9 @@ rgbd_frame_t MakeBopFrameMessage(const BopScene& scene, const BopFrame& frame,
 cv::Rect BoxOfMask(const cv::Mat& mask, int margin_px);
 
 /// The GT indices of `frame` to send per image id: all of them without targets, else for
-/// each target (scene_id, im_id, obj_id, inst_count) the first inst_count GT instances of
-/// obj_id in file order (as g6d-bench-dataset does). `missing` (optional) receives how many
+/// each target (scene_id, im_id, obj_id, inst_count) the inst_count most visible GT instances
+/// of obj_id (TargetGtIndices, as g6d-bench-dataset and the BOP evaluation choose them).
+/// `missing` (optional) receives how many
 /// target instances the GT lacks.
 std::vector<int> SelectInstances(const BopFrame& frame, int scene_id,
                                  const std::vector<BopTarget>* targets, int* missing = nullptr);

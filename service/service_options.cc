@@ -221,7 +221,9 @@ void ParseServiceOptionsYaml(const std::string& text, const std::string& name,
                          {"mhpo_max_rounds", int_field(&o.solver.mhpo.max_rounds)},
                          {"early_stop_score", double_field(&o.solver.mhpo.early_stop_score)},
                          {"reject_border_masks", bool_field(&o.solver.reject_border_masks)},
-                         {"min_valid_depth_pixels", int_field(&o.solver.min_valid_depth_pixels)}});
+                         {"min_valid_depth_pixels", int_field(&o.solver.min_valid_depth_pixels)},
+                         {"use_silhouettes", bool_field(&o.solver.use_silhouettes)},
+                         {"silhouette_hypotheses", int_field(&o.solver.silhouette_hypotheses)}});
              }},
             {"tracking", [&](const YAML::Node& n, const std::string& key) {
                ApplyMap(n, name, key,
@@ -245,6 +247,7 @@ void ParseServiceOptionsYaml(const std::string& text, const std::string& name,
                          {"found_object_passes", int_field(&o.detect.found_object_passes)},
                          {"max_solve_hypotheses", int_field(&o.detect.max_solve_hypotheses)},
                          {"solve_pnp_min_quality", double_field(&o.detect.solve_pnp_min_quality)},
+                         {"solve_silhouettes", bool_field(&o.detect.solve_silhouettes)},
                          {"max_planes", int_field(&o.detect.max_planes)},
                          {"support_extent_factor", double_field(&o.detect.support_extent_factor)},
                          {"raised_sigmas", double_field(&o.detect.raised_sigmas)},

@@ -80,6 +80,27 @@ TEST(BopObjectName, FormatsAndParses) {
   EXPECT_THROW(ParseBopObjectName("obj_00001x"), Error);
 }
 
+TEST(TargetGtIndices, TheMostVisibleInstancesInSceneGtOrder) {
+  // Object 7 three times (visible 0.0, 0.6, 0.9), object 3 once without gt_info.
+  BopFrame frame;
+  for (const auto& [obj_id, visib] : std::vector<std::pair<int, double>>{{7, 0.0}, {3, -1.0}, {7, 0.6}, {7, 0.9}}) {
+    BopGtInstance gt;
+    gt.obj_id = obj_id;
+    if (visib >= 0.0) {
+      gt.info = BopGtInfo();
+      gt.info->visib_fract = visib;
+    }
+    frame.gt.push_back(gt);
+  }
+  // A target of one instance is the most visible one, not the first (hidden) one in the file.
+  EXPECT_EQ(TargetGtIndices(frame, 7, 1), (std::vector<int>{3}));
+  EXPECT_EQ(TargetGtIndices(frame, 7, 2), (std::vector<int>{2, 3}));
+  EXPECT_EQ(TargetGtIndices(frame, 7, 5), (std::vector<int>{0, 2, 3}));
+  EXPECT_EQ(TargetGtIndices(frame, 3, 1), (std::vector<int>{1}));  // no gt_info: counts as seen
+  EXPECT_TRUE(TargetGtIndices(frame, 9, 1).empty());
+  EXPECT_TRUE(TargetGtIndices(frame, 7, 0).empty());
+}
+
 TEST(LoadBopDataset, ReadsLmo) {
   G6D_REQUIRE_SHARED_DATA("lmo");
   const BopDataset dataset = LoadBopDataset(test::SharedDataPath("lmo"));

@@ -430,6 +430,18 @@ BopDataset LoadBopDataset(const std::string& root, const std::string& split) {
   return dataset;
 }
 
+std::vector<int> TargetGtIndices(const BopFrame& frame, int obj_id, int inst_count) {
+  std::vector<int> of_object;
+  for (size_t g = 0; g < frame.gt.size(); ++g) {
+    if (frame.gt[g].obj_id == obj_id) of_object.push_back(static_cast<int>(g));
+  }
+  auto visib = [&](int g) { return frame.gt[g].info ? frame.gt[g].info->visib_fract : 1.0; };
+  std::stable_sort(of_object.begin(), of_object.end(), [&](int a, int b) { return visib(a) > visib(b); });
+  of_object.resize(std::min<size_t>(of_object.size(), static_cast<size_t>(std::max(0, inst_count))));
+  std::sort(of_object.begin(), of_object.end());
+  return of_object;
+}
+
 const BopFrame& BopScene::Frame(int im_id) const {
   const auto it = std::lower_bound(frames.begin(), frames.end(), im_id,
                                    [](const BopFrame& f, int id) { return f.im_id < id; });

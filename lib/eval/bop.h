@@ -158,6 +158,12 @@ struct BopFrame {
   std::vector<BopGtInstance> gt;  ///< scene_gt.json list, in file order (gt_idx = index)
 };
 
+/// The GT instances a target (obj_id, inst_count) asks for, BOP's rule
+/// (eval_calc_scores.py): the inst_count instances of the object with the largest
+/// visib_fract (ties, and instances without gt_info, in scene_gt order), returned in scene_gt
+/// order. A hidden instance of an object seen twice is not asked for.
+std::vector<int> TargetGtIndices(const BopFrame& frame, int obj_id, int inst_count);
+
 /// One scene folder: cameras and ground truth of all its images.
 struct BopScene {
   std::string root;       ///< dataset root

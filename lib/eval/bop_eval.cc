@@ -185,20 +185,10 @@ ImageResult EvaluateImage(const ImageTargets& image, const BopScene& scene,
     BopRecall tally = EmptyRecall(options);
 
     // Valid GT (eval_calc_scores.py with visib_gt_min = -1): the inst_count instances of
-    // the object with the largest visib_fract; Python's sort is stable, so ties keep the
-    // scene_gt order.
-    std::vector<int> gt_of_object;
-    for (size_t g = 0; g < frame.gt.size(); ++g) {
-      if (frame.gt[g].obj_id == obj_id) gt_of_object.push_back(static_cast<int>(g));
-    }
+    // the object with the largest visib_fract; matching walks them in scene_gt order (BOP
+    // iterates its error dict by gt_id).
+    const std::vector<int> valid_gt = TargetGtIndices(frame, obj_id, inst_count);
     auto visib = [&](int g) { return frame.gt[g].info ? frame.gt[g].info->visib_fract : 1.0; };
-    std::stable_sort(gt_of_object.begin(), gt_of_object.end(),
-                     [&](int a, int b) { return visib(a) > visib(b); });
-    std::vector<int> valid_gt(
-        gt_of_object.begin(),
-        gt_of_object.begin() + std::min<size_t>(gt_of_object.size(), std::max(0, inst_count)));
-    // Matching walks the GT in scene_gt order (BOP iterates its error dict by gt_id).
-    std::sort(valid_gt.begin(), valid_gt.end());
 
     // Kept estimates (eval_calc_errors.py, n_top = -1): stable sort by decreasing score,
     // the first inst_count.

@@ -357,6 +357,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
     solve_options.num_hypotheses = std::min(solve_options.num_hypotheses, options.max_solve_hypotheses);
   }
   solve_options.pnp_min_quality_ratio = std::max(solve_options.pnp_min_quality_ratio, options.solve_pnp_min_quality);
+  solve_options.use_silhouettes = solve_options.use_silhouettes && options.solve_silhouettes;
   cv::Mat first_region = out.support == 0;
   // Requests that all say where their object is: only the area around their `within` is
   // segmented, grown by its longer side and by the object's size in pixels at the nearest

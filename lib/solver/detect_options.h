@@ -98,6 +98,11 @@ struct DetectOptions {
   /// more precise with more PnP starts; K = 12 keeps 0.824).
   int max_solve_hypotheses = 12;
   double solve_pnp_min_quality = 0.5;
+  /// Poses from the outline (SolverOptions::use_silhouettes) in a candidate region's solve.
+  /// Off: a region is cut from the depth, so its outline is the depth's (a pile of touching
+  /// parts is one region), and the regions that hold an object have depth for the
+  /// point-pair features.
+  bool solve_silhouettes = false;
   /// Ranking: weight of the colour agreement against the size agreement (0 = size only).
   /// The colour term is the Bhattacharyya coefficient of chromaticity histograms of the
   /// region's pixels and the cache's appearance samples (neutral 0.5 for an uncoloured

@@ -80,7 +80,8 @@ void RunFinalistStage(const SolveContext& c, std::vector<Finalist> finalists, co
   stages.finalists_ms = watch.ElapsedMs();
   if (stages.answer_hypothesis >= 0) {
     const int rank = kept[static_cast<size_t>(stages.answer_hypothesis)].set_rank;
-    stages.answer_from_ppf = rank < 0;
+    stages.answer_from_ppf = rank == kPpfSource;
+    stages.answer_from_silhouette = rank == kSilhouetteSource;
     if (rank >= 0) {
       stages.answer_set_rank = rank;
       stages.answer_quality_ratio = sets[static_cast<size_t>(rank)].quality / sets.front().quality;

@@ -90,13 +90,13 @@ PoseResult EstimatePoseOnMask(const Frame& frame, const Instance& instance, cons
 
     Search search;  // stages 1 and 2: features, template matching, MSAC-PnP
     const std::string no_hypothesis = RunSearchStages(context, &search);
-    RunPpfStage(context, &search);  // texture-free hypotheses from the depth
+    RunPpfStage(context, &search);         // texture-free hypotheses from the depth
+    RunSilhouetteStage(context, &search);  // and from the mask's outline
     if (search.hypotheses.empty()) {
       return fail(Termination::kNoHypothesis,
-                  no_hypothesis.empty() ? std::string("no hypothesis from ORB-PnP or point-pair features")
-                                        : no_hypothesis + (context.bank.ppf.empty() || !options.use_ppf
-                                                               ? std::string()
-                                                               : "; point-pair features gave no pose"));
+                  (no_hypothesis.empty() ? std::string("no hypothesis from ORB-PnP") : no_hypothesis) +
+                      (context.bank.ppf.empty() || !options.use_ppf ? std::string() : "; point-pair features gave no pose") +
+                      (options.use_silhouettes ? "; no template outline matched the mask's" : ""));
     }
     std::vector<Hypothesis> kept = RunObservableStage(context, search.hypotheses);  // stage 3 (eq. 7)
     const IcpOutcome icp = RunIcpStage(context, &kept);                              // stage 4

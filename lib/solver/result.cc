@@ -18,7 +18,7 @@ const char* TerminationName(Termination termination) {
 
 std::vector<StageTime> StageTimes(const StageReport& s) {
   return {{"prepare", s.prepare_ms},     {"features", s.features_ms},       {"match", s.match_ms},
-          {"pnp", s.pnp_ms},             {"ppf", s.ppf_ms},                 {"observable", s.observable_ms},   {"icp", s.icp_ms},
+          {"pnp", s.pnp_ms},             {"ppf", s.ppf_ms},                 {"silhouette", s.silhouette_ms},   {"observable", s.observable_ms},   {"icp", s.icp_ms},
           {"mhpo", s.mhpo_ms},           {"post_refine", s.post_refine_ms}, {"finalists", s.finalists_ms},
           {"mask_refine", s.mask_refine_ms}, {"depth_regions", s.depth_regions_ms},
           {"neighbours", s.neighbours_ms},       {"total", s.total_ms}};
@@ -29,6 +29,8 @@ void CopyMaskSolveReport(const StageReport& from, StageReport* to) {
   to->features_ms = from.features_ms;
   to->match_ms = from.match_ms;
   to->pnp_ms = from.pnp_ms;
+  to->ppf_ms = from.ppf_ms;
+  to->silhouette_ms = from.silhouette_ms;
   to->observable_ms = from.observable_ms;
   to->icp_ms = from.icp_ms;
   to->mhpo_ms = from.mhpo_ms;

@@ -44,6 +44,11 @@ struct StageReport {
   int ppf_hypotheses = 0;
   int ppf_distinct = 0;
   bool answer_from_ppf = false;
+  /// Poses from the mask's outline (SolverOptions::use_silhouettes): how many, how many were
+  /// new, and whether T_A came from one of them.
+  int silhouette_hypotheses = 0;
+  int silhouette_distinct = 0;
+  bool answer_from_silhouette = false;
   int kept_hypotheses = 0;         ///< after observable selection (≤ N_H)
   int icp_converged = 0;
   int sets_tried = 0;               ///< correspondence sets PnP ran on (pnp_min_quality_ratio)
@@ -87,7 +92,7 @@ struct StageReport {
   double best_e_obs = 1.0;         ///< best E_obs among PnP poses
   double best_s_after_icp = 2.0;   ///< best S after ICP
   double prepare_ms = 0.0, features_ms = 0.0, match_ms = 0.0, pnp_ms = 0.0,
-         ppf_ms = 0.0, observable_ms = 0.0, icp_ms = 0.0, mhpo_ms = 0.0, post_refine_ms = 0.0, finalists_ms = 0.0,
+         ppf_ms = 0.0, silhouette_ms = 0.0, observable_ms = 0.0, icp_ms = 0.0, mhpo_ms = 0.0, post_refine_ms = 0.0, finalists_ms = 0.0,
          mask_refine_ms = 0.0, depth_regions_ms = 0.0, neighbours_ms = 0.0, total_ms = 0.0;
   int distinct_finalists = 0;         ///< finalists left after merging poses equal modulo symmetry
   int appearance_compared = 0;        ///< finalists whose appearance was scored
@@ -115,7 +120,7 @@ struct StageTime {
 
 /// The stage times of a report in pipeline order, with the names every report uses (the
 /// service's status, g6d-solve, the benchmarks): prepare, features, match, pnp, ppf,
-/// observable, icp, mhpo, post_refine, finalists, total.
+/// silhouette, observable, icp, mhpo, post_refine, finalists, total.
 std::vector<StageTime> StageTimes(const StageReport& stages);
 
 /// Copies the stage times of one solve on a mask (prepare_ms ... depth_regions_ms; not

@@ -112,8 +112,12 @@ class PoseComparer {
 /// (-1: a point-pair-feature pose).
 struct Hypothesis {
   Eigen::Isometry3d cam_from_object;
+  /// Rank by Q_j of the correspondence set its PnP pose came from, or the source that has
+  /// no set: kPpfSource, kSilhouetteSource.
   int set_rank = 0;
 };
+constexpr int kPpfSource = -1;         ///< Hypothesis::set_rank of a point-pair-feature pose
+constexpr int kSilhouetteSource = -2;  ///< Hypothesis::set_rank of a pose from the mask's outline
 
 /// Everything the stages share for one instance.
 struct SolveContext {

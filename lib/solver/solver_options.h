@@ -17,6 +17,7 @@
 #include "solver/region.h"
 #include "solver/score.h"
 #include "solver/segments.h"
+#include "solver/silhouette_poses.h"
 #include "templates/appearance.h"
 #include "templates/features.h"
 
@@ -101,6 +102,14 @@ struct SolverOptions {
   /// and MHPO refine K + ppf_hypotheses poses. (Competing for the K slots instead, they
   /// displaced a textured object's right PnP pose at small K.)
   int ppf_hypotheses = 6;
+  /// Hypotheses from the mask's outline (silhouette_poses.h): template silhouettes matched
+  /// to the mask's at in-plane angles, scaled to its area. They need neither texture nor
+  /// depth (metal that reflects the sensor's pattern away). Not for a box or a mask wider
+  /// than the object, whose outline is not the object's.
+  bool use_silhouettes = true;
+  SilhouetteOptions silhouette;
+  /// Slots beyond K (and the PPF slots) for the outline's poses, the best by E_obs.
+  int silhouette_hypotheses = 4;
   int num_hypotheses = 18;      ///< N_H = K: hypotheses kept after observable selection
   ScoreOptions score;           ///< ω_C = 0.70, λ_S = 10
   GridOptions selection_grid = [] {

@@ -8,6 +8,7 @@
 
 #include "core/timer.h"
 #include "render/raster.h"
+#include "solver/silhouette_poses.h"
 #include "templates/crop.h"
 
 namespace g6d {
@@ -124,16 +125,19 @@ std::vector<Hypothesis> SelectObservable(const SolveContext& c, const std::vecto
   // The PnP poses fill the K slots as in the paper; the point-pair-feature poses have slots
   // of their own beyond K (options.ppf_hypotheses, the best of them by E_obs), so that a
   // depth-voted pose never takes a textured object's PnP pose's place.
-  int ppf_kept = 0;
+  // The outline's poses likewise (options.silhouette_hypotheses).
+  int ppf_kept = 0, silhouette_kept = 0;
   for (int i : order) {
-    if (hypotheses[static_cast<size_t>(i)].set_rank < 0) {
-      if (ppf_kept >= options.ppf_hypotheses) continue;
-      ++ppf_kept;
+    const int source = hypotheses[static_cast<size_t>(i)].set_rank;
+    if (source == kPpfSource || source == kSilhouetteSource) {
+      int& taken = source == kPpfSource ? ppf_kept : silhouette_kept;
+      if (taken >= (source == kPpfSource ? options.ppf_hypotheses : options.silhouette_hypotheses)) continue;
+      ++taken;
       kept.push_back(hypotheses[static_cast<size_t>(i)]);
       if (kept.size() == 1) c.stages->best_e_obs = observable[static_cast<size_t>(i)].e_obs;
       continue;
     }
-    if (static_cast<int>(kept.size()) - ppf_kept >= options.num_hypotheses) continue;
+    if (static_cast<int>(kept.size()) - ppf_kept - silhouette_kept >= options.num_hypotheses) continue;
     if (!kept.empty() && c.clock->OutOfTime(kObservableBudgetShare)) break;
     const Hypothesis& h = hypotheses[static_cast<size_t>(i)];
     bool distinct = true;
@@ -301,10 +305,79 @@ void RunPpfStage(const SolveContext& c, Search* search) {
       distinct = !c.comparer.Within(pose.cam_from_object, search->hypotheses[k].cam_from_object, distinct_m);
     }
     if (!distinct) continue;
-    search->hypotheses.push_back(Hypothesis{pose.cam_from_object, -1});
+    search->hypotheses.push_back(Hypothesis{pose.cam_from_object, kPpfSource});
     ++stages.ppf_distinct;
   }
   stages.ppf_ms = watch.ElapsedMs();
+}
+
+namespace {
+
+// The outline's distance comes from its area, which an occluder shrinks: where the mask has
+// depth, the pose is moved along its viewing ray so that its rendered surface lies on the
+// observed one (the median difference over the mask's pixels with both), keeping the
+// object's place in the image. A pose left behind the surface would see every depth pixel
+// as an occluder and never be pulled onto it (score.h: occluded pixels count for nothing).
+Eigen::Isometry3d OntoObservedDepth(const SolveContext& c, const Eigen::Isometry3d& cam_from_object,
+                                    RasterImage* scratch) {
+  constexpr int kMinPixels = 10;
+  const EvaluationGrid& grid = c.observation.selection_grid;
+  RasterOptions raster_options;
+  raster_options.want_face_id = false;
+  raster_options.cull_backfaces = c.selection_score.cull_backfaces;
+  Rasterize(*c.selection_mesh, grid.camera, cam_from_object, raster_options, scratch);
+  std::vector<float> differences;
+  for (int v = 0; v < grid.mask.rows; ++v) {
+    const uint8_t* m = grid.mask.ptr<uint8_t>(v);
+    const float* d = grid.depth.ptr<float>(v);
+    const float* r = scratch->depth.ptr<float>(v);
+    for (int u = 0; u < grid.mask.cols; ++u) {
+      if (m[u] != 0 && d[u] > 0.0f && r[u] > 0.0f) differences.push_back(d[u] - r[u]);
+    }
+  }
+  if (static_cast<int>(differences.size()) < kMinPixels) return cam_from_object;
+  const auto middle = differences.begin() + static_cast<std::ptrdiff_t>(differences.size() / 2);
+  std::nth_element(differences.begin(), middle, differences.end());
+  const Eigen::Vector3d centre = cam_from_object * c.bank.bounding_box.center();
+  if (centre.z() <= 0.0) return cam_from_object;
+  const double ratio = (centre.z() + *middle) / centre.z();
+  if (!(ratio > 0.2 && ratio < 5.0)) return cam_from_object;
+  Eigen::Isometry3d moved = cam_from_object;
+  moved.translation() += (ratio - 1.0) * centre;
+  return moved;
+}
+
+}  // namespace
+
+void RunSilhouetteStage(const SolveContext& c, Search* search) {
+  const Observation& observation = c.observation;
+  if (!c.options.use_silhouettes || c.options.silhouette_hypotheses == 0 || observation.is_box ||
+      observation.wider_than_object) {
+    return;
+  }
+  if (!search->hypotheses.empty() && c.clock->OutOfTime(kPnpBudgetShare)) return;
+  StageReport& stages = *c.stages;
+  const Stopwatch watch;
+  const double distinct_m = c.options.distinct_pose_fraction * c.bank.diameter_m;
+  const SamePose same = [&](const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+    return c.comparer.Within(a, b, distinct_m);
+  };
+  const std::vector<SilhouettePose> poses =
+      SilhouettePoses(c.bank, c.frame.camera, observation.mask, c.options.silhouette, same);
+  stages.silhouette_hypotheses = static_cast<int>(poses.size());
+  const size_t earlier = search->hypotheses.size();
+  RasterImage scratch;
+  for (const SilhouettePose& pose : poses) {
+    const Eigen::Isometry3d cam_from_object = OntoObservedDepth(c, pose.cam_from_object, &scratch);
+    bool distinct = true;
+    for (size_t k = 0; k < earlier && distinct && c.options.merge_pnp_poses; ++k) {
+      distinct = !same(cam_from_object, search->hypotheses[k].cam_from_object);
+    }
+    if (!distinct) continue;
+    search->hypotheses.push_back(Hypothesis{cam_from_object, kSilhouetteSource});
+    ++stages.silhouette_distinct;
+  }
+  stages.silhouette_ms = watch.ElapsedMs();
 }
 
 std::vector<Hypothesis> RunObservableStage(const SolveContext& c, const std::vector<Hypothesis>& hypotheses) {

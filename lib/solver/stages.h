@@ -36,6 +36,11 @@ std::string RunSearchStages(const SolveContext& c, Search* search);
 /// (modulo the symmetries) merged into it.
 void RunPpfStage(const SolveContext& c, Search* search);
 
+/// Poses from the mask's outline (silhouette_poses.h; not for a box or a mask wider than the
+/// object): they join the hypotheses, those equal to one already there (modulo the
+/// symmetries) merged into it.
+void RunSilhouetteStage(const SolveContext& c, Search* search);
+
 /// Stage 3 with its report: the K hypotheses kept by E_obs.
 std::vector<Hypothesis> RunObservableStage(const SolveContext& c, const std::vector<Hypothesis>& hypotheses);
 

@@ -64,6 +64,16 @@ bool IsClosedOutward(const Mesh& mesh) {
 }  // namespace
 
 void DeriveOnlineMeshes(TemplateBank* bank) {
+  bank->silhouettes.clear();
+  for (const Template& view : bank->templates) {
+    TemplateSilhouette silhouette;
+    const MaskMoments in_crop = MomentsOfMask(view.mask);
+    silhouette.bits = EncodeSilhouette(view.mask, in_crop, 0.0);
+    // Template image px = crop_scale * crop px + crop_offset (A_j).
+    silhouette.moments.centroid_px = view.crop_scale * in_crop.centroid_px + view.crop_offset;
+    silhouette.moments.area_px = in_crop.area_px * view.crop_scale * view.crop_scale;
+    bank->silhouettes.push_back(silhouette);
+  }
   bank->selection_mesh = Mesh();
   bank->online_mesh_closed = false;
   bank->selection_mesh_closed = false;

@@ -22,6 +22,7 @@
 #include "templates/crop.h"
 #include "templates/features.h"
 #include "templates/ppf_model.h"
+#include "templates/silhouette.h"
 #include "templates/views.h"
 
 namespace g6d {
@@ -117,6 +118,9 @@ struct TemplateBank {
   /// a rendering.
   bool online_mesh_closed = false;
   bool selection_mesh_closed = false;
+  /// Each template's silhouette code (templates[j]'s mask, silhouette.h), for the solver's
+  /// hypotheses from the outline alone.
+  std::vector<TemplateSilhouette> silhouettes;
 
   /// Total number of keypoints over all templates.
   size_t NumKeypoints() const;
@@ -127,8 +131,9 @@ struct TemplateBank {
 /// the silhouette within a pixel (the selection's recall is unchanged: bench/RESULTS.md, issue 13).
 constexpr int kSelectionMeshFaces = 1000;
 
-/// Fills the derived fields of *bank from bank->online_mesh: the selection mesh
-/// (kSelectionMeshFaces) and whether each mesh may be rendered with back faces culled.
+/// Fills the derived fields of *bank: from bank->online_mesh the selection mesh
+/// (kSelectionMeshFaces) and whether each mesh may be rendered with back faces culled; from
+/// the templates' masks their silhouette codes.
 void DeriveOnlineMeshes(TemplateBank* bank);
 
 /// Progress callback: (templates done, templates total).

@@ -31,6 +31,7 @@ STRUCTS = {
     "CropOptions": "lib/templates/crop.h",
     "SymmetryOptions": "lib/mesh/symmetry.h",
     "PpfSearchOptions": "lib/solver/ppf.h",
+    "SilhouetteOptions": "lib/solver/silhouette_poses.h",
     "PpfModelOptions": "lib/templates/ppf_model.h",
 }
 # Fields a Python caller cannot use, and why.

@@ -39,8 +39,9 @@ def test_options_reach_the_solver(sample, sample_banks, image, tmp_path):
                                    "--mask", image.mask_path(0), "--hypotheses", "3", "--mask-trust", "exact",
                                    "--no-mhpo"])
     assert_same_answer(result, answer)
-    # K = 3 PnP poses, and the point-pair-feature poses refined beside them.
-    assert result.stages["kept_hypotheses"] <= 3 + g6d.SolverOptions().ppf_hypotheses
+    # K = 3 PnP poses, and the point-pair-feature and outline poses refined beside them.
+    defaults = g6d.SolverOptions()
+    assert result.stages["kept_hypotheses"] <= 3 + defaults.ppf_hypotheses + defaults.silhouette_hypotheses
 
 
 def test_box_is_solved(sample_banks, image):

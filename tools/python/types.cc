@@ -300,6 +300,13 @@ void BindOptions(py::module_& module) {
         G6D_FIELD(normal_radius_steps) G6D_FIELD(max_scene_points).Done();
   }
   {
+    using T = SilhouetteOptions;
+    OptionsClass<T>(module, "SilhouetteOptions",
+                    "Poses from the mask's outline: template silhouettes matched at in-plane angles "
+                    "(solver/silhouette_poses.h).")
+        G6D_FIELD(rotations) G6D_FIELD(candidates) G6D_FIELD(min_iou) G6D_FIELD(min_mask_pixels).Done();
+  }
+  {
     using T = PpfModelOptions;
     OptionsClass<T>(module, "PpfModelOptions",
                     "The point-pair-feature model built into a cache (templates/ppf_model.h).")
@@ -317,7 +324,8 @@ void BindOptions(py::module_& module) {
         G6D_FIELD(split_merged_at_creases) G6D_FIELD(max_search_regions) G6D_FIELD(region_candidates)
         G6D_FIELD(unsure_score) G6D_FIELD(unsure_ambiguous_score) G6D_FIELD(explain_neighbours) G6D_FIELD(neighbour_min_fraction)
         G6D_FIELD(mask_refine_rounds) G6D_FIELD(match) G6D_FIELD(pnp) G6D_FIELD(use_ppf) G6D_FIELD(ppf)
-        G6D_FIELD(ppf_hypotheses) G6D_FIELD(num_hypotheses) G6D_FIELD(score)
+        G6D_FIELD(ppf_hypotheses) G6D_FIELD(use_silhouettes) G6D_FIELD(silhouette) G6D_FIELD(silhouette_hypotheses)
+        G6D_FIELD(num_hypotheses) G6D_FIELD(score)
         G6D_FIELD(selection_grid) G6D_FIELD(refine_grid) G6D_FIELD(icp) G6D_FIELD(run_icp)
         G6D_FIELD(max_observed_points) G6D_FIELD(max_source_points) G6D_FIELD(icp_coarse_points)
         G6D_FIELD(icp_probe_iterations) G6D_FIELD(icp_finish_hypotheses) G6D_FIELD(icp_source_in_mask)
@@ -353,7 +361,7 @@ void BindOptions(py::module_& module) {
         G6D_FIELD(extent_margin_px) G6D_FIELD(min_extent_fraction) G6D_FIELD(min_area_fraction)
         G6D_FIELD(extra_candidates) G6D_FIELD(colour_weight) G6D_FIELD(rank_uncoloured_by_shape) G6D_FIELD(shape_references) G6D_FIELD(accept_confidence)
         G6D_FIELD(accept_region_iou) G6D_FIELD(fill_gap_px) G6D_FIELD(explain_away_passes) G6D_FIELD(found_object_passes)
-        G6D_FIELD(max_solve_hypotheses) G6D_FIELD(solve_pnp_min_quality) G6D_FIELD(max_score)
+        G6D_FIELD(max_solve_hypotheses) G6D_FIELD(solve_pnp_min_quality) G6D_FIELD(solve_silhouettes) G6D_FIELD(max_score)
         G6D_FIELD(max_overlap) G6D_FIELD(ppf_extra) G6D_FIELD(ppf_reference_stride) G6D_FIELD(ppf_max_scene_points)
         G6D_FIELD(ppf_surface_fraction) G6D_FIELD(ppf_max_free_space) G6D_FIELD(ppf_min_contour_support)
         G6D_FIELD(ppf_contour_step_m) G6D_FIELD(max_free_space) G6D_FIELD(free_space_fraction)

@@ -33,8 +33,8 @@ import os as _os
 from . import _core
 from ._core import (AppearanceOptions, CropOptions, DetectOptions, Error, GridOptions, IcpOptions,
                     IdentifyOptions, MaskTrust, MatchOptions, MhpoOptions, OrbOptions, PnpMinimalSolver,
-                    PnpOptions, PpfModelOptions, PpfSearchOptions, RegionOptions, ScoreOptions, SegmentOptions, SolverOptions,
-                    SymmetryOptions, TemplateBank, TemplateBuildOptions, TrackSolveOptions,
+                    PnpOptions, PpfModelOptions, PpfSearchOptions, RegionOptions, ScoreOptions, SegmentOptions, SilhouetteOptions,
+                    SolverOptions, SymmetryOptions, TemplateBank, TemplateBuildOptions, TrackSolveOptions,
                     ViewSamplingOptions)
 
 # The LCM message classes (lcm-gen's package g6d): image_t, instance_t, rgbd_frame_t,
@@ -56,7 +56,7 @@ __all__ = [
 _OPTION_CLASSES = (AppearanceOptions, CropOptions, DetectOptions, GridOptions, IcpOptions,
                    IdentifyOptions, MatchOptions, MhpoOptions, OrbOptions, PnpOptions, PpfModelOptions,
                    PpfSearchOptions, RegionOptions,
-                   ScoreOptions, SegmentOptions, SolverOptions, SymmetryOptions, TemplateBuildOptions,
+                   ScoreOptions, SegmentOptions, SilhouetteOptions, SolverOptions, SymmetryOptions, TemplateBuildOptions,
                    TrackSolveOptions, ViewSamplingOptions)
 
 

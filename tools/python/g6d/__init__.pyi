@@ -146,6 +146,13 @@ class AppearanceOptions(_Options):
     min_chroma_std: float
     min_visible_points: int
 
+class SilhouetteOptions(_Options):
+    """Poses from the mask's outline (lib/solver/silhouette_poses.h)."""
+    rotations: int
+    candidates: int
+    min_iou: float
+    min_mask_pixels: int
+
 class PpfSearchOptions(_Options):
     """Point-pair-feature voting on the depth (lib/solver/ppf.h)."""
     reference_stride: int
@@ -189,6 +196,9 @@ class SolverOptions(_Options):
     use_ppf: bool
     ppf: PpfSearchOptions
     ppf_hypotheses: int
+    use_silhouettes: bool
+    silhouette: SilhouetteOptions
+    silhouette_hypotheses: int
     num_hypotheses: int
     score: ScoreOptions
     selection_grid: GridOptions
@@ -270,6 +280,7 @@ class DetectOptions(_Options):
     found_object_passes: int
     max_solve_hypotheses: int
     solve_pnp_min_quality: float
+    solve_silhouettes: bool
     max_score: float
     max_overlap: float
     ppf_extra: int
