@@ -362,8 +362,12 @@ void RunSilhouetteStage(const SolveContext& c, Search* search) {
   const SamePose same = [&](const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
     return c.comparer.Within(a, b, distinct_m);
   };
+  // The outline: the mask with what the depth grew it by over the object it missed (a cut
+  // mask's lost part comes back where the depth continues the object).
+  cv::Mat outline = observation.mask;
+  if (!observation.search_regions.empty()) outline = observation.mask | observation.search_regions.front().mask;
   const std::vector<SilhouettePose> poses =
-      SilhouettePoses(c.bank, c.frame.camera, observation.mask, c.options.silhouette, same);
+      SilhouettePoses(c.bank, c.frame.camera, outline, c.options.silhouette, same);
   stages.silhouette_hypotheses = static_cast<int>(poses.size());
   const size_t earlier = search->hypotheses.size();
   RasterImage scratch;
