@@ -160,6 +160,9 @@ int main(int argc, char** argv) {
   app.add_option("--mask-trust", mask_trust, "how the mask is read: depth (evidence checked by the depth) or exact (the paper's; ablation)")
       ->capture_default_str();
   app.add_flag("--no-occlusion", no_occlusion, "no occlusion reasoning in the scores, ICP and MHPO (ablation)");
+  bool unseen_hidden = false;
+  app.add_flag("--unseen-hidden", unseen_hidden,
+               "a rendered pixel outside the mask without observed depth counts for nothing (ScoreOptions::unseen_is_hidden)");
   app.add_flag("--no-dedupe", no_dedupe, "keep hypotheses equal modulo symmetry as separate K slots (ablation)");
   // Speed schedule (issue 13), each switchable for the ablation table.
   bool no_simd_match = false;
@@ -351,6 +354,7 @@ int main(int argc, char** argv) {
     if (no_silhouettes) options.use_silhouettes = false;
     if (silhouette_hypotheses >= 0) options.silhouette_hypotheses = silhouette_hypotheses;
     if (no_occlusion) options.score.occlusion_margin_m = 0.0;
+    if (unseen_hidden) options.score.unseen_is_hidden = true;
     options.mask_trust = g6d::ParseMaskTrust(mask_trust);
     options.split_merged_at_creases = crease_split;
     if (no_dedupe) options.distinct_pose_fraction = 0.0;

@@ -38,8 +38,10 @@ TEST(ScoreRendering, HandComputedShiftAndDepthOffset) {
   rendered.depth = cv::Mat::zeros(10, 10, CV_32F);
   // Rendered 4 x 5 box shifted right by 2 columns, 2 cm behind the observation.
   rendered.depth(cv::Rect(4, 2, 4, 5)).setTo(1.02f);
-  // Intersection: columns 4..5 -> 2 x 5 = 10 px; union 20 + 20 - 10 = 30.
+  // Intersection: columns 4..5 -> 2 x 5 = 10 px; union 20 + 20 - 10 = 30 (the grid has no
+  // depth outside the mask: the paper's count, every rendered pixel outside it against).
   ScoreOptions options;
+  options.unseen_is_hidden = false;
   const PoseScore score = ScoreRendering(grid, rendered, 1.0, options);
   EXPECT_DOUBLE_EQ(score.coverage, 10.0 / 20.0);
   EXPECT_DOUBLE_EQ(score.iou, 10.0 / 30.0);
@@ -59,6 +61,37 @@ TEST(ScoreRendering, MissingObservedDepthIsNotCounted) {
   const PoseScore score = ScoreRendering(grid, rendered, 1.0, ScoreOptions());
   EXPECT_EQ(score.overlap_pixels, 10);
   EXPECT_NEAR(score.depth_residual, 0.01, 1e-6);
+}
+
+TEST(ScoreRendering, UnseenPixelsOutsideTheMaskCountForNothing) {
+  // The object continues 2 columns left of the mask, under an occluder the sensor saw no
+  // depth on (metal, a shadow); right of the mask the background has depth.
+  EvaluationGrid grid = MakeGrid();
+  grid.depth(cv::Rect(6, 0, 4, 10)).setTo(1.5f);
+  RasterImage rendered;
+  rendered.depth = cv::Mat::zeros(10, 10, CV_32F);
+  rendered.depth(cv::Rect(0, 2, 6, 5)).setTo(1.0f);
+  ScoreOptions options;
+  EXPECT_FALSE(options.unseen_is_hidden);  // the paper's count by default
+  options.unseen_is_hidden = true;
+  const PoseScore hidden = ScoreRendering(grid, rendered, 1.0, options);
+  EXPECT_EQ(hidden.occluded_pixels, 10);
+  EXPECT_DOUBLE_EQ(hidden.iou, 1.0);
+  options.unseen_is_hidden = false;
+  const PoseScore counted = ScoreRendering(grid, rendered, 1.0, options);
+  EXPECT_EQ(counted.occluded_pixels, 0);
+  EXPECT_DOUBLE_EQ(counted.iou, 20.0 / 30.0);
+  // Where the sensor sees no background at all (most of the grid outside the mask without
+  // depth), a missing depth says nothing of occluders: counted again.
+  options.unseen_is_hidden = true;
+  grid.unseen_background = 0.8;
+  EXPECT_DOUBLE_EQ(ScoreRendering(grid, rendered, 1.0, options).iou, 20.0 / 30.0);
+  grid.unseen_background = 0.0;
+  // Where the background has depth, a rendering beyond the mask still counts against.
+  RasterImage right;
+  right.depth = cv::Mat::zeros(10, 10, CV_32F);
+  right.depth(cv::Rect(2, 2, 6, 5)).setTo(1.0f);
+  EXPECT_DOUBLE_EQ(ScoreRendering(grid, right, 1.0, options).iou, 20.0 / 30.0);
 }
 
 TEST(MakeEvaluationGrid, DownscalesAroundTheMask) {

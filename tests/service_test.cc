@@ -143,8 +143,8 @@ TEST_F(ServiceTest, AnswersWithPosesWithinAddTenthDiameter) {
     EXPECT_GT(estimate.confidence, 0.0);
     EXPECT_GT(estimate.iou, 0.5);
     EXPECT_GE(estimate.hypotheses, 1);
-    // K = 2 PnP poses, and the point-pair-feature poses beside them.
-    EXPECT_LE(estimate.hypotheses, 2 + SolverOptions().ppf_hypotheses);
+    // K = 2 PnP poses, and the point-pair-feature and outline poses beside them.
+    EXPECT_LE(estimate.hypotheses, 2 + SolverOptions().ppf_hypotheses + SolverOptions().silhouette_hypotheses);
     EXPECT_GT(estimate.solve_time_s, 0.0);
     // The views keep the whole box inside the image; its printed texture is compared with
     // the image at the answer, and agrees with it at the right pose.

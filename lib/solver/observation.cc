@@ -88,6 +88,7 @@ EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, con
   if (!support.empty()) grid.support.create(grid.camera.height, grid.camera.width, CV_8U);
   G6D_CHECK(unsure.empty() || (unsure.type() == CV_8U && unsure.size() == mask.size()));
   if (!unsure.empty()) grid.unsure.create(grid.camera.height, grid.camera.width, CV_8U);
+  int background = 0, unseen = 0;
   for (int v = 0; v < grid.camera.height; ++v) {
     const int sv = std::min(y1 - 1, y0 + static_cast<int>((v + 0.5) / scale));
     const uint8_t* m = mask.ptr<uint8_t>(sv);
@@ -104,8 +105,11 @@ EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, con
       const float z = d[su];
       gd[u] = (z > 0.0f && std::isfinite(z)) ? z : 0.0f;
       grid.mask_pixels += gm[u] ? 1 : 0;
+      background += gm[u] ? 0 : 1;
+      unseen += !gm[u] && !(gd[u] > 0.0f) ? 1 : 0;
     }
   }
+  grid.unseen_background = background > 0 ? static_cast<double>(unseen) / background : 0.0;
   if (!segments.empty()) {
     // The segments inside the mask on the grid; kept only when there are two or more.
     double max_label = 0.0;

@@ -33,6 +33,10 @@ struct EvaluationGrid {
   /// empty when none.
   cv::Mat unsure;
   int mask_pixels = 0;
+  /// Share of the grid's pixels outside the mask without observed depth: small where the
+  /// sensor sees a background with holes, near 1 where it sees none (a far wall, depth of
+  /// the objects alone).
+  double unseen_background = 0.0;
 };
 
 /// Options of MakeEvaluationGrid().

@@ -16,6 +16,7 @@ std::string ScoreOptions::Check() const {
   else if (!(surface_tolerance_m >= 0.0 && std::isfinite(surface_tolerance_m))) out << "ScoreOptions.surface_tolerance_m must be finite and >= 0 (got " << surface_tolerance_m << ")";
   else if (!(segment_own_fraction >= 0.0 && segment_own_fraction <= 1.0)) out << "ScoreOptions.segment_own_fraction must be in [0, 1] (got " << segment_own_fraction << ")";
   else if (!(max_object_extent_m >= 0.0 && std::isfinite(max_object_extent_m))) out << "ScoreOptions.max_object_extent_m must be finite and >= 0 (got " << max_object_extent_m << ")";
+  else if (!(max_unseen_background >= 0.0 && max_unseen_background <= 1.0)) out << "ScoreOptions.max_unseen_background must be in [0, 1] (got " << max_unseen_background << ")";
   return out.str();
 }
 
@@ -73,7 +74,8 @@ PoseScore ScoreRendering(const EvaluationGrid& grid, const RasterImage& rendered
         ++score.foreign_pixels;  // another object's segment
         in_observed = false;
       }
-      if (in_rendered && (!in_observed || options.depth_evidence) && IsOccluded(r[u], d[u], options)) {
+      if (in_rendered && ((!in_observed && HiddenOutsideMask(r[u], d[u], grid, options)) ||
+                          (in_observed && options.depth_evidence && IsOccluded(r[u], d[u], options)))) {
         // Hidden by an occluder that no mask covers: neither for nor against. Inside the
         // mask (depth evidence) the mask leaked onto an occluder, or the pose lies behind
         // the observed surface: not rendered, a miss for every pose alike, and no depth

@@ -262,7 +262,7 @@ void BindOptions(py::module_& module) {
     OptionsClass<T>(module, "ScoreOptions", "E_obs and S: omega_C, lambda_S (solver/score.h).")
         G6D_FIELD(omega_c) G6D_FIELD(lambda_s) G6D_FIELD(occlusion_margin_m) G6D_FIELD(cull_backfaces)
         G6D_FIELD(depth_evidence) G6D_FIELD(surface_tolerance_m) G6D_FIELD(segment_own_fraction)
-        G6D_FIELD(max_object_extent_m).Done();
+        G6D_FIELD(max_object_extent_m) G6D_FIELD(unseen_is_hidden) G6D_FIELD(max_unseen_background).Done();
   }
   {
     using T = GridOptions;

@@ -105,6 +105,8 @@ class ScoreOptions(_Options):
     surface_tolerance_m: float
     segment_own_fraction: float
     max_object_extent_m: float
+    unseen_is_hidden: bool
+    max_unseen_background: float
 
 class GridOptions(_Options):
     margin: float
