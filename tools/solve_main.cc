@@ -443,6 +443,8 @@ int main(int argc, char** argv) {
   double budget_ms = 0.0;
   app.add_option("--budget-ms", budget_ms, "time budget of the solve, ms (0 = none): when it runs out the best pose so far is returned, marked cut short")->check(CLI::NonNegativeNumber);
   app.add_flag("--no-mhpo", no_mhpo, "skip MHPO (ablation)");
+  bool no_silhouettes = false;
+  app.add_flag("--no-silhouettes", no_silhouettes, "no poses from the mask's outline (ablation)");
   bool post_refine = false, allow_border = false, reject_border = false;
   std::string mask_trust = g6d::MaskTrustName(g6d::SolverOptions().mask_trust);
   app.add_option("--mask-trust", mask_trust,
@@ -527,6 +529,7 @@ int main(int argc, char** argv) {
     options.num_hypotheses = hypotheses;
     options.budget_ms = budget_ms;
     options.run_mhpo = !no_mhpo;
+    options.use_silhouettes = !no_silhouettes;
     options.post_refine = post_refine;
     options.mask_trust = g6d::ParseMaskTrust(mask_trust);
     if (allow_border && reject_border) G6D_THROW("--allow-border-masks and --reject-border-masks contradict each other");
