@@ -260,6 +260,13 @@ int main(int argc, char** argv) {
   app.add_option("--detect-island-bonus", detect_options.uncoloured_island_bonus,
                  "--masks none: added to the rank of an island for an object without colour (0 = none)")
       ->capture_default_str();
+  app.add_option("--detect-island-split", detect_options.island_split_core,
+                 "--masks none: split islands at their necks: a core is at least this fraction as thick as the thickest "
+                 "pixel near it (0 = no split)");
+  app.add_option("--detect-pieces-uncoloured-only", detect_options.island_pieces_uncoloured_only,
+                 "--masks none: pieces of split islands are candidates for objects without colour only");
+  app.add_option("--detect-island-window", detect_options.island_split_window,
+                 "--masks none: the neighbourhood of --detect-island-split, as a fraction of the largest object's size in pixels");
   app.add_option("--detect-island-open", detect_options.island_open_px,
                  "--masks none: islands (connected parts of the frame less its support, opened by this many pixels) "
                  "are candidate regions too (-1 = none)")
@@ -288,6 +295,8 @@ int main(int argc, char** argv) {
   app.add_option("--detect-solve-pnp-quality", detect_options.solve_pnp_min_quality,
                  "--masks none: a candidate region's solve runs PnP on sets with Q_j >= this fraction of Q_1")
       ->capture_default_str();
+  app.add_option("--detect-island-silhouettes", detect_options.island_silhouettes,
+                 "--masks none: poses from the outline in the solves of islands (their outline is the support's edge)");
   app.add_option("--detect-solve-silhouettes", detect_options.solve_silhouettes,
                  "--masks none: a candidate region's solve adds poses from the region's outline")
       ->capture_default_str();

@@ -252,6 +252,8 @@ void ParseServiceOptionsYaml(const std::string& text, const std::string& name,
                          {"support_extent_factor", double_field(&o.detect.support_extent_factor)},
                          {"raised_sigmas", double_field(&o.detect.raised_sigmas)},
                          {"island_open_px", int_field(&o.detect.island_open_px)},
+                         {"island_split_core", double_field(&o.detect.island_split_core)},
+                         {"island_silhouettes", bool_field(&o.detect.island_silhouettes)},
                          {"min_confidence", double_field(&o.detect.min_confidence)},
                          {"rank_uncoloured_by_shape", bool_field(&o.detect.rank_uncoloured_by_shape)}});
              }}});

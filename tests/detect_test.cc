@@ -366,6 +366,7 @@ TEST_F(DetectTest, CandidateSolvesKeepAtMostTheirOwnK) {
   ThreadPool pool(2);
   SolverOptions solver = QuickSolver();
   solver.use_ppf = false;  // only the PnP poses fill the K slots
+  solver.use_silhouettes = false;  // (an island's solve adds the outline's own slots)
   DetectOptions options;
   options.max_solve_hypotheses = 0;  // the solver's K (8)
   options.solve_pnp_min_quality = 0.0;  // PnP on every set: many distinct poses
@@ -377,6 +378,28 @@ TEST_F(DetectTest, CandidateSolvesKeepAtMostTheirOwnK) {
   ASSERT_EQ(capped.size(), 1u);
   EXPECT_LE(capped[0].result.stages.kept_poses.size(), 2u);
   EXPECT_LT(AddOf(capped[0], Box(), scene.poses[0]), 0.1 * Box().bank.diameter_m);
+}
+
+TEST_F(DetectTest, AnIslandsSolveReadsItsOutlineAndASegmentsDoesNot) {
+  const Scene scene = RenderScene({&Box()}, {OnTable(Box(), 0.0, 0.3)}, 11);
+  ThreadPool pool(2);
+  DetectOptions options;
+  options.extra_candidates = 4;  // islands and segment regions both solved
+  DetectionReport report;
+  const std::vector<Detection> found = DetectObjects(scene.frame, {{&Box().bank, 1}}, QuickSolver(), options, &pool, &report);
+  ASSERT_EQ(found.size(), 1u) << report.message;
+  EXPECT_LT(AddOf(found[0], Box(), scene.poses[0]), 0.1 * Box().bank.diameter_m);
+  // The answer's solve adds outline poses exactly when its region is an island.
+  const Proposal& answered = report.proposals[static_cast<size_t>(found[0].proposal)];
+  if (!answered.mask.empty()) {
+    EXPECT_GT(found[0].result.stages.silhouette_hypotheses, 0) << "an island's solve made no pose from its outline";
+  } else {
+    EXPECT_EQ(found[0].result.stages.silhouette_hypotheses, 0) << "a depth segment's outline is the depth's, not the object's";
+  }
+  options.island_silhouettes = false;
+  const std::vector<Detection> without = DetectObjects(scene.frame, {{&Box().bank, 1}}, QuickSolver(), options, &pool, &report);
+  ASSERT_EQ(without.size(), 1u);
+  EXPECT_EQ(without[0].result.stages.silhouette_hypotheses, 0);
 }
 
 TEST_F(DetectTest, AnEmptyTableGivesNoAnswerAndSolvesNothing) {

@@ -3,11 +3,18 @@
 // gives depth on only 60% of its pixels, and a 40 mm block.
 #include "solver/proposals.h"
 
+#include <algorithm>
 #include <cmath>
 #include <random>
+#include <set>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "core/error.h"
 
 namespace g6d {
 namespace {
@@ -29,6 +36,33 @@ double DepthAt(int u, int v, double height) {
   const Eigen::Vector3d ray = kCamera.Ray(Eigen::Vector2d(u + 0.5, v + 0.5));
   const Eigen::Vector3d point = kFloorPoint + height * kUp;
   return kUp.dot(point) / kUp.dot(ray);
+}
+
+// Plates 3 mm thick lying on the floor, depth on 60% of their pixels; their union in
+// scene.plate, the block none.
+FloorScene MakePlates(const std::vector<cv::Rect>& plates) {
+  FloorScene scene;
+  scene.frame.camera = kCamera;
+  scene.frame.rgb = cv::Mat(480, 640, CV_8UC3, cv::Scalar(90, 90, 90));
+  scene.frame.depth = cv::Mat::zeros(480, 640, CV_32F);
+  scene.plate = cv::Mat::zeros(480, 640, CV_8U);
+  scene.block = cv::Mat::zeros(480, 640, CV_8U);
+  for (const cv::Rect& plate : plates) scene.plate(plate).setTo(255);
+  std::mt19937 random(11);
+  std::normal_distribution<double> noise(0.0, 0.0007);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  for (int v = 0; v < 480; ++v) {
+    for (int u = 0; u < 640; ++u) {
+      const bool on_plate = scene.plate.at<uint8_t>(v, u) != 0;
+      if (on_plate && uniform(random) >= 0.6) continue;
+      scene.frame.depth.at<float>(v, u) = static_cast<float>(DepthAt(u, v, on_plate ? 0.003 : 0.0) + noise(random));
+    }
+  }
+  return scene;
+}
+
+double Iou(const cv::Mat& a, const cv::Mat& b) {
+  return static_cast<double>(cv::countNonZero(a & b)) / cv::countNonZero(a | b);
 }
 
 FloorScene MakeScene(double plate_thickness_m) {
@@ -124,6 +158,57 @@ TEST(FormIslands, AnObjectLyingApartIsOneRegionWithItsPixelsWithoutDepth) {
   EXPECT_TRUE(FormIslands(scene.frame, support == 0, 0.12, off).empty());
 }
 
+TEST(SplitAtNecks, TwoBlobsJoinedByANeckSplitAndAnLOfOneWidthDoesNot) {
+  cv::Mat two = cv::Mat::zeros(120, 200, CV_8U);
+  cv::circle(two, cv::Point(50, 60), 35, cv::Scalar(255), cv::FILLED);
+  cv::circle(two, cv::Point(128, 60), 30, cv::Scalar(255), cv::FILLED);
+  two(cv::Rect(80, 56, 25, 8)).setTo(255);  // the neck: 8 px where the blobs are 60-70 px wide
+  cv::Mat pieces;
+  std::set<std::pair<int, int>> touching;
+  ASSERT_EQ(SplitAtNecks(two, 0.6, 20, 4, &pieces, &touching), 2);
+  EXPECT_EQ(touching, (std::set<std::pair<int, int>>{{1, 2}}));
+  EXPECT_EQ(cv::countNonZero((pieces > 0) != (two > 0)), 0);  // every pixel of the island in a piece
+  cv::Mat left = cv::Mat::zeros(two.size(), CV_8U), right = left.clone();
+  cv::circle(left, cv::Point(50, 60), 35, cv::Scalar(255), cv::FILLED);
+  cv::circle(right, cv::Point(128, 60), 30, cv::Scalar(255), cv::FILLED);
+  const int left_label = pieces.at<int>(60, 50), right_label = pieces.at<int>(60, 128);
+  EXPECT_NE(left_label, right_label);
+  EXPECT_GT(Iou(pieces == left_label, left), 0.85);
+  EXPECT_GT(Iou(pieces == right_label, right), 0.85);
+  // An L of one width (a bracket) has no neck: one piece.
+  cv::Mat bracket = cv::Mat::zeros(120, 120, CV_8U);
+  bracket(cv::Rect(10, 10, 20, 100)).setTo(255);
+  bracket(cv::Rect(10, 90, 100, 20)).setTo(255);
+  EXPECT_EQ(SplitAtNecks(bracket, 0.6, 20, 4, &pieces, &touching), 1);
+  EXPECT_TRUE(touching.empty());
+  EXPECT_THROW(SplitAtNecks(bracket, 0.0, 20, 4, &pieces, &touching), Error);
+  EXPECT_THROW(SplitAtNecks(bracket, 0.6, 0, 4, &pieces, &touching), Error);
+}
+
+TEST(FormIslands, PlatesThatTouchGetARegionEach) {
+  // Two plates of about 70 mm that touch along 10 px: one island of 150 mm, too wide for the
+  // largest object (0.1 m), so without the split neither plate is a region.
+  const std::vector<cv::Rect> plates{{200, 200, 60, 60}, {270, 190, 60, 60}, {259, 220, 12, 10}};
+  const FloorScene scene = MakePlates(plates);
+  cv::Mat support;
+  FindSupport(scene.frame, DetectOptions(), 0.1, &support);
+  DetectOptions unsplit;
+  unsplit.island_split_core = 0.0;
+  EXPECT_TRUE(FormIslands(scene.frame, support == 0, 0.1, unsplit).empty());
+  const std::vector<Proposal> islands = FormIslands(scene.frame, support == 0, 0.1, DetectOptions());
+  for (int k = 0; k < 2; ++k) {
+    cv::Mat plate = cv::Mat::zeros(480, 640, CV_8U);
+    plate(plates[static_cast<size_t>(k)]).setTo(255);
+    double best = 0.0;
+    for (const Proposal& island : islands) {
+      EXPECT_TRUE(island.island_piece);
+      best = std::max(best, Iou(island.mask, plate));
+    }
+    EXPECT_GT(best, 0.85) << "plate " << k;
+  }
+  for (const Proposal& island : islands) EXPECT_LE(island.extent_m, 0.1);
+}
+
 TEST(DetectOptions, TheSupportAndIslandFieldsAreChecked) {
   DetectOptions options;
   options.raised_window_px = 4;
@@ -137,6 +222,15 @@ TEST(DetectOptions, TheSupportAndIslandFieldsAreChecked) {
   options = DetectOptions();
   options.island_open_px = -2;
   EXPECT_NE(options.Check().find("island_open_px"), std::string::npos);
+  options = DetectOptions();
+  options.island_split_core = 1.5;
+  EXPECT_NE(options.Check().find("island_split_core"), std::string::npos);
+  options = DetectOptions();
+  options.island_split_window = 0.0;
+  EXPECT_NE(options.Check().find("island_split_window"), std::string::npos);
+  options = DetectOptions();
+  options.island_split_max_pieces = 1;
+  EXPECT_NE(options.Check().find("island_split_max_pieces"), std::string::npos);
 }
 
 }  // namespace

@@ -357,7 +357,9 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
     solve_options.num_hypotheses = std::min(solve_options.num_hypotheses, options.max_solve_hypotheses);
   }
   solve_options.pnp_min_quality_ratio = std::max(solve_options.pnp_min_quality_ratio, options.solve_pnp_min_quality);
+  SolverOptions island_solve_options = solve_options;
   solve_options.use_silhouettes = solve_options.use_silhouettes && options.solve_silhouettes;
+  island_solve_options.use_silhouettes = island_solve_options.use_silhouettes && options.island_silhouettes;
   cv::Mat first_region = out.support == 0;
   // Requests that all say where their object is: only the area around their `within` is
   // segmented, grown by its longer side and by the object's size in pixels at the nearest
@@ -432,7 +434,9 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
       const double largest_extent_m = largest_diameter_m + allowance_m(farthest);
       std::vector<Proposal> proposals = FormRegions(
           segmentation, NeighbourSegments(segmentation.labels, options.neighbour_gap_px), largest_extent_m, options);
-      for (Proposal& proposal : FormIslands(frame, island_region, largest_extent_m, options)) proposals.push_back(std::move(proposal));
+      if (!all_within) {  // an island is no candidate for a request that says where its object is
+        for (Proposal& proposal : FormIslands(frame, island_region, largest_extent_m, options)) proposals.push_back(std::move(proposal));
+      }
       for (Proposal& proposal : proposals) proposal.pass = pass;
       out.proposals.insert(out.proposals.end(), proposals.begin(), proposals.end());
     }
@@ -478,6 +482,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
         for (size_t p = first_proposal; p < out.proposals.size(); ++p) {
           const Proposal& proposal = out.proposals[p];
           if (!proposal.mask.empty() && !requests[r].within.empty()) continue;  // islands: over the frame only
+          if (proposal.island_piece && has_colour && options.island_pieces_uncoloured_only) continue;
           const double d = bank.diameter_m;
           if (proposal.extent_m > d + allowance_m(proposal.depth_m)) continue;
           if (proposal.extent_m < options.min_extent_fraction * d) continue;
@@ -595,12 +600,13 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
         detection.request = static_cast<int>(job.request);
         detection.object_id = requests[job.request].bank->object_id;
         detection.proposal = trial.proposal;
-        detection.region = FilledRegionMask(segmentation.labels, out.support,
-                                            out.proposals[static_cast<size_t>(trial.proposal)], options.fill_gap_px);
+        const Proposal& proposal = out.proposals[static_cast<size_t>(trial.proposal)];
+        detection.region = FilledRegionMask(segmentation.labels, out.support, proposal, options.fill_gap_px);
         // The solve on the region as a mask: EstimatePose without its depth regions
         // (solve_options.region_candidates is 0), so detection sits below EstimatePose.
-        detection.result = EstimatePoseOnMask(frame, {detection.object_id, detection.region},
-                                              *requests[job.request].bank, solve_options, executor);
+        const bool island = !proposal.mask.empty() && proposal.ppf_request < 0;
+        detection.result = EstimatePoseOnMask(frame, {detection.object_id, detection.region}, *requests[job.request].bank,
+                                              island ? island_solve_options : solve_options, executor);
         const Stopwatch check_watch;
         if (detection.result.success) {
           const TemplateBank& bank = *requests[job.request].bank;

@@ -21,6 +21,10 @@ std::string DetectOptions::Check() const {
   else if (!(raised_flatness > 0.0)) out << "DetectOptions.raised_flatness must be > 0 (got " << raised_flatness << ")";
   else if (!(raised_min_height_m >= 0.0 && raised_min_height_m < 0.1)) out << "DetectOptions.raised_min_height_m must be in [0, 0.1) m (got " << raised_min_height_m << ")";
   else if (island_open_px < -1 || island_open_px > 10) out << "DetectOptions.island_open_px must be in [-1, 10] (-1 = no islands; got " << island_open_px << ")";
+  else if (!(island_split_core >= 0.0 && island_split_core <= 1.0)) out << "DetectOptions.island_split_core must be in [0, 1] (0 = no split; got " << island_split_core << ")";
+  else if (!(island_split_window > 0.0 && island_split_window <= 1.0)) out << "DetectOptions.island_split_window must be in (0, 1] (got " << island_split_window << ")";
+  else if (island_split_max_pieces < 2) out << "DetectOptions.island_split_max_pieces must be >= 2 (got " << island_split_max_pieces << ")";
+  else if (island_split_min_core_px < 1) out << "DetectOptions.island_split_min_core_px must be >= 1 (got " << island_split_min_core_px << ")";
   else if (!(uncoloured_island_bonus >= 0.0 && uncoloured_island_bonus <= 1.0)) out << "DetectOptions.uncoloured_island_bonus must be in [0, 1] (got " << uncoloured_island_bonus << ")";
   else if (neighbour_gap_px < 1) out << "DetectOptions.neighbour_gap_px must be >= 1 (got " << neighbour_gap_px << ")";
   else if (max_union_segments < 1) out << "DetectOptions.max_union_segments must be >= 1 (got " << max_union_segments << ")";

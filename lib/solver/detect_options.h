@@ -56,6 +56,17 @@ struct DetectOptions {
   /// opened by a (2 · island_open_px + 1) square, are candidate regions too, beside the depth
   /// segments and their unions (-1 = none). Not inside a request's `within`.
   int island_open_px = 1;
+  /// Islands split at their necks (FormIslands, SplitAtNecks): a core is where the island is
+  /// at least this fraction as thick (distance to its edge) as anywhere within
+  /// `island_split_window` of the largest object's size in pixels around it. 0 = no split.
+  double island_split_core = 0.6;
+  double island_split_window = 0.25;
+  int island_split_min_core_px = 4;
+  /// An island that splits into more pieces than this is no pile of objects (a wall, the
+  /// floor beyond a table) and gives none.
+  int island_split_max_pieces = 40;
+  /// Pieces are candidates for objects without colour only (true) or for every object.
+  bool island_pieces_uncoloured_only = true;
   /// For an object without colour, an island's rank (in [0, 1] by size and shape) gets this
   /// much more: with neither colour nor texture to go by, a part the support surrounds is
   /// the region most likely to hold one whole object (on synth_dev's bins, 58% of the
@@ -103,6 +114,10 @@ struct DetectOptions {
   /// parts is one region), and the regions that hold an object have depth for the
   /// point-pair features.
   bool solve_silhouettes = false;
+  /// Poses from the outline in the solve of an island or an island's piece (FormIslands): its
+  /// outline is drawn by the support around it, pixels without depth included, so it is an
+  /// object's outline when the island holds one object.
+  bool island_silhouettes = true;
   /// Ranking: weight of the colour agreement against the size agreement (0 = size only).
   /// The colour term is the Bhattacharyya coefficient of chromaticity histograms of the
   /// region's pixels and the cache's appearance samples (neutral 0.5 for an uncoloured

@@ -4,10 +4,13 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <queue>
 #include <random>
+#include <set>
 
 #include <opencv2/imgproc.hpp>
 
+#include "core/error.h"
 #include "solver/plane.h"
 
 namespace g6d {
@@ -351,6 +354,83 @@ int SharedPixels(const Proposal& a, const Proposal& b, const DepthSegmentation& 
   return shared;
 }
 
+int SplitAtNecks(const cv::Mat& island, double core_fraction, int window_px, int min_core_px, cv::Mat* pieces,
+                 std::set<std::pair<int, int>>* touching) {
+  if (island.empty() || island.type() != CV_8U) G6D_THROW("SplitAtNecks: the island must be CV_8U");
+  if (!(core_fraction > 0.0 && core_fraction <= 1.0)) G6D_THROW("SplitAtNecks: core_fraction must be in (0, 1] (got " << core_fraction << ")");
+  if (window_px < 1) G6D_THROW("SplitAtNecks: window_px must be >= 1 (got " << window_px << ")");
+  *pieces = cv::Mat::zeros(island.size(), CV_32S);
+  if (touching != nullptr) touching->clear();
+  // The distance to the island's edge, with the frame's border as edge too.
+  cv::Mat padded;
+  cv::copyMakeBorder(island > 0, padded, 1, 1, 1, 1, cv::BORDER_CONSTANT, cv::Scalar(0));
+  cv::Mat distance;
+  cv::distanceTransform(padded, distance, cv::DIST_L2, cv::DIST_MASK_3);
+  distance = distance(cv::Rect(1, 1, island.cols, island.rows)).clone();
+  // Cores: the pixels at least core_fraction as far from the edge as the farthest pixel
+  // around them. Where two objects touch, the island's neck is thinner than both objects,
+  // so no core crosses it.
+  cv::Mat local_max;
+  const int side = 2 * window_px + 1;
+  cv::dilate(distance, local_max, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(side, side)));  // separable: fast
+  cv::Mat cores = (distance >= core_fraction * local_max) & (distance >= 1.5f) & (island > 0);
+  cv::Mat core_labels, stats, centroids;
+  const int found = cv::connectedComponentsWithStats(cores, core_labels, stats, centroids, 8, CV_32S);
+  // Cores of fewer than min_core_px pixels are noise on the edge: their pixels go to a
+  // neighbouring piece.
+  std::vector<int> renumber(static_cast<size_t>(found), 0);
+  int count = 0;
+  for (int k = 1; k < found; ++k) {
+    if (stats.at<int>(k, cv::CC_STAT_AREA) >= min_core_px) renumber[static_cast<size_t>(k)] = ++count;
+  }
+  if (count == 0) return 0;
+  // Grow the cores back over the island, farthest from the edge first (a flood by
+  // decreasing distance): each pixel joins the core that reaches it first from above.
+  struct Item {
+    float distance;
+    int index;
+    bool operator<(const Item& other) const { return distance < other.distance || (distance == other.distance && index > other.index); }
+  };
+  std::priority_queue<Item> queue;
+  const int cols = island.cols;
+  for (int v = 0; v < island.rows; ++v) {
+    const int* c = core_labels.ptr<int>(v);
+    int* p = pieces->ptr<int>(v);
+    const float* d = distance.ptr<float>(v);
+    for (int u = 0; u < cols; ++u) {
+      const int label = renumber[static_cast<size_t>(c[u])];
+      if (label == 0) continue;
+      p[u] = label;
+      queue.push({d[u], v * cols + u});
+    }
+  }
+  int* labels = pieces->ptr<int>(0);
+  const uint8_t* inside = island.ptr<uint8_t>(0);
+  const float* far = distance.ptr<float>(0);
+  const bool continuous = island.isContinuous() && pieces->isContinuous() && distance.isContinuous();
+  if (!continuous) G6D_THROW("SplitAtNecks: the island must be a continuous matrix");
+  while (!queue.empty()) {
+    const Item item = queue.top();
+    queue.pop();
+    const int u = item.index % cols, v = item.index / cols;
+    const int label = labels[item.index];
+    const int du[4] = {1, -1, 0, 0}, dv[4] = {0, 0, 1, -1};
+    for (int n = 0; n < 4; ++n) {
+      const int x = u + du[n], y = v + dv[n];
+      if (x < 0 || y < 0 || x >= cols || y >= island.rows) continue;
+      const int index = y * cols + x;
+      if (!inside[index]) continue;
+      if (labels[index] == 0) {
+        labels[index] = label;
+        queue.push({far[index], index});
+      } else if (labels[index] != label && touching != nullptr) {
+        touching->insert({std::min(label, labels[index]), std::max(label, labels[index])});
+      }
+    }
+  }
+  return count;
+}
+
 std::vector<Proposal> FormIslands(const Frame& frame, const cv::Mat& region, double largest_extent_m,
                                   const DetectOptions& options) {
   std::vector<Proposal> islands;
@@ -373,25 +453,78 @@ std::vector<Proposal> FormIslands(const Frame& frame, const cv::Mat& region, dou
   }
   const std::vector<DepthSegment> statistics = SegmentStatistics(frame.camera, frame.depth, labels, count - 1);
   const double focal = std::min(frame.camera.fx, frame.camera.fy);
+  // A region with its own mask, from its pixels' statistics.
+  auto make = [&](const DepthSegment& segment, const cv::Rect& box, cv::Mat mask, int mask_pixels) {
+    Proposal proposal;
+    proposal.box = box;
+    proposal.pixels = segment.pixels;
+    proposal.mask_pixels = mask_pixels;
+    proposal.depth_m = segment.median_depth_m;
+    proposal.extent_m = std::max(segment.spans.Extent(), std::max(box.width, box.height) * segment.median_depth_m / focal);
+    for (int axis = 0; axis < 3; ++axis) {
+      proposal.centre_m[axis] = 0.5 * (segment.spans.low[static_cast<size_t>(axis)] + segment.spans.high[static_cast<size_t>(axis)]);
+    }
+    proposal.mask = std::move(mask);
+    return proposal;
+  };
   for (int k = 1; k < count; ++k) {
     const DepthSegment& island = statistics[static_cast<size_t>(k - 1)];
     if (island.pixels < options.segments.min_segment_pixels) continue;
     const cv::Rect box(stats.at<int>(k, cv::CC_STAT_LEFT), stats.at<int>(k, cv::CC_STAT_TOP),
                        stats.at<int>(k, cv::CC_STAT_WIDTH), stats.at<int>(k, cv::CC_STAT_HEIGHT));
-    const double extent_m =
-        std::max(island.spans.Extent(), std::max(box.width, box.height) * island.median_depth_m / focal);
-    if (extent_m > largest_extent_m) continue;
-    Proposal proposal;
-    proposal.box = box;
-    proposal.pixels = island.pixels;
-    proposal.mask_pixels = stats.at<int>(k, cv::CC_STAT_AREA);
-    proposal.depth_m = island.median_depth_m;
-    proposal.extent_m = extent_m;
-    for (int axis = 0; axis < 3; ++axis) {
-      proposal.centre_m[axis] = 0.5 * (island.spans.low[static_cast<size_t>(axis)] + island.spans.high[static_cast<size_t>(axis)]);
+    Proposal whole = make(island, box, parts == k, stats.at<int>(k, cv::CC_STAT_AREA));
+    const bool fits = whole.extent_m <= largest_extent_m;
+    if (fits) islands.push_back(std::move(whole));
+    if (options.island_split_core <= 0.0) continue;
+    // Objects that touch make one island: its pieces split at its necks, and pairs of
+    // touching pieces, are regions too (a part thin in its middle splits in two).
+    const double object_px = focal * largest_extent_m / island.median_depth_m;
+    if (std::max(box.width, box.height) < 0.5 * object_px && fits) continue;  // too small to hold two
+    const int window_px = std::max(2, static_cast<int>(std::lround(options.island_split_window * object_px)));
+    cv::Mat pieces;
+    std::set<std::pair<int, int>> touching;
+    const cv::Mat in_box = parts(box) == k;
+    const int n = SplitAtNecks(in_box, options.island_split_core, window_px, options.island_split_min_core_px, &pieces, &touching);
+    if (n < 2) continue;
+    if (n > options.island_split_max_pieces) continue;  // not a pile of objects: a wall, a floor
+    // The pieces' statistics, in the island's box (its camera cropped to it).
+    cv::Mat piece_depth_labels = cv::Mat::zeros(box.size(), CV_32S);
+    for (int v = 0; v < box.height; ++v) {
+      const int* p = pieces.ptr<int>(v);
+      const int* l = labels.ptr<int>(box.y + v) + box.x;
+      int* out = piece_depth_labels.ptr<int>(v);
+      for (int u = 0; u < box.width; ++u) out[u] = l[u] > 0 ? p[u] : 0;
     }
-    proposal.mask = parts == k;
-    islands.push_back(std::move(proposal));
+    const std::vector<DepthSegment> piece_statistics = SegmentStatistics(
+        frame.camera.Cropped(box.x, box.y, box.width, box.height), frame.depth(box), piece_depth_labels, n);
+    std::vector<cv::Rect> piece_boxes(static_cast<size_t>(n));  // in the island's box
+    for (int i = 1; i <= n; ++i) piece_boxes[static_cast<size_t>(i - 1)] = cv::boundingRect(pieces == i);
+    // A piece, or two touching ones, as a region when it fits the largest object.
+    auto add = [&](const DepthSegment& segment, const cv::Rect& piece_box, int a, int b) {
+      if (segment.pixels < options.segments.min_segment_pixels) return;
+      cv::Mat local = pieces(piece_box) == a;
+      if (b > 0) local |= pieces(piece_box) == b;
+      cv::Mat mask = cv::Mat::zeros(parts.size(), CV_8U);
+      local.copyTo(mask(piece_box + box.tl()));
+      Proposal proposal = make(segment, piece_box + box.tl(), std::move(mask), cv::countNonZero(local));
+      if (proposal.extent_m > largest_extent_m) return;
+      proposal.island_piece = true;
+      islands.push_back(std::move(proposal));
+    };
+    for (int i = 0; i < n; ++i) {
+      add(piece_statistics[static_cast<size_t>(i)], piece_boxes[static_cast<size_t>(i)], i + 1, 0);
+    }
+    if (n == 2 && fits) continue;  // the pair is the whole island
+    for (const auto& [a, b] : touching) {
+      const DepthSegment& first = piece_statistics[static_cast<size_t>(a - 1)];
+      const DepthSegment& second = piece_statistics[static_cast<size_t>(b - 1)];
+      if (first.pixels == 0 || second.pixels == 0) continue;
+      DepthSegment both;
+      both.pixels = first.pixels + second.pixels;
+      both.median_depth_m = (first.pixels * first.median_depth_m + second.pixels * second.median_depth_m) / both.pixels;
+      both.spans = first.spans.Union(second.spans);
+      add(both, piece_boxes[static_cast<size_t>(a - 1)] | piece_boxes[static_cast<size_t>(b - 1)], a, b);
+    }
   }
   return islands;
 }

@@ -34,6 +34,8 @@ struct Proposal {
   int mask_pixels = 0;  ///< pixels of `mask`, with depth or not (an island's area)
   int ppf_request = -1;
   double ppf_votes = 0.0;
+  /// A piece of an island split at its necks, or two touching pieces (FormIslands).
+  bool island_piece = false;
 };
 
 /// Support planes (DetectOptions): RANSAC on a grid sample of the depth, one plane after the
@@ -63,6 +65,16 @@ int PixelsInside(const cv::Mat& labels, const Proposal& proposal, const cv::Mat&
 /// a region that has its own mask, the pixels of `a` with depth inside the other's).
 int SharedPixels(const Proposal& a, const Proposal& b, const DepthSegmentation& segmentation, const cv::Mat& depth);
 
+/// Splits an island (CV_8U, non-zero = in, continuous) where it is thin: its cores, the
+/// pixels whose distance to the island's edge is at least `core_fraction` of the largest such
+/// distance within `window_px` (and 1.5 px), are grown back over the island in order of
+/// decreasing distance. Objects that touch meet at a neck thinner than either, so each gets
+/// a core of its own. Cores of fewer than `min_core_px` pixels are dropped. Fills *pieces
+/// (CV_32S, the island's size: 0 outside, 1..n) and the pairs of pieces that touch (a < b);
+/// returns n (0 when the island has no core).
+int SplitAtNecks(const cv::Mat& island, double core_fraction, int window_px, int min_core_px, cv::Mat* pieces,
+                 std::set<std::pair<int, int>>* touching);
+
 /// Islands: the connected parts of `region` (CV_8U: the frame less its support; pixels
 /// without depth count) after an opening by a (2 · island_open_px + 1) square, each a
 /// region with its own mask (Proposal::mask) when it holds at least
@@ -72,6 +84,10 @@ int SharedPixels(const Proposal& a, const Proposal& b, const DepthSegmentation& 
 /// or a bin's bottom is one, whole, with its pixels without depth (bare metal reflects the
 /// sensor's pattern away, dark faces absorb it); the depth segments break such an object
 /// into specks or lose it.
+/// With DetectOptions::island_split_core > 0, an island at least half the largest object's
+/// size in pixels is also split at its necks (SplitAtNecks): its pieces and each two touching
+/// pieces that fit the largest object are regions too (Proposal::island_piece), so objects
+/// that touch each other, as parts in a bin do, get a region each.
 std::vector<Proposal> FormIslands(const Frame& frame, const cv::Mat& region, double largest_extent_m,
                                   const DetectOptions& options);
 

@@ -264,6 +264,12 @@ class DetectOptions(_Options):
     raised_min_height_m: float
     raised_flatness: float
     island_open_px: int
+    island_split_core: float
+    island_split_window: float
+    island_split_min_core_px: int
+    island_split_max_pieces: int
+    island_pieces_uncoloured_only: bool
+    island_silhouettes: bool
     uncoloured_island_bonus: float
     neighbour_gap_px: int
     max_union_segments: int
