@@ -267,6 +267,10 @@ int main(int argc, char** argv) {
                  "--masks none: pieces of split islands are candidates for objects without colour only");
   app.add_option("--detect-island-window", detect_options.island_split_window,
                  "--masks none: the neighbourhood of --detect-island-split, as a fraction of the largest object's size in pixels");
+  app.add_option("--detect-raised-window", detect_options.raised_window_px,
+                 "--masks none: the raised test averages the height above a support over squares of this side (odd)");
+  app.add_option("--detect-max-planes", detect_options.max_planes,
+                 "--masks none: support planes at most (RANSAC, one after the other)");
   app.add_option("--detect-island-open", detect_options.island_open_px,
                  "--masks none: islands (connected parts of the frame less its support, opened by this many pixels) "
                  "are candidate regions too (-1 = none)")

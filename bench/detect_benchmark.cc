@@ -242,6 +242,9 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
         const double on_support =
             depth_pixels > 0 ? static_cast<double>(cv::countNonZero(with_depth & report.support)) / depth_pixels : 0.0;
         const double has_depth = static_cast<double>(depth_pixels) / std::max(1, cv::countNonZero(visible));
+        const double raised = depth_pixels > 0 && !report.raised.empty()
+                                  ? static_cast<double>(cv::countNonZero(with_depth & report.raised)) / depth_pixels
+                                  : 0.0;
         double formed = 0.0, ranked = 0.0, solved = 0.0;
         for (size_t p = 0; p < pixels.size(); ++p) formed = std::max(formed, Iou(pixels[p], visible));
         // The best-holding ranked region's place among its pass's candidates for the object.
@@ -282,8 +285,8 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
         diagnosis.ranked += ranked >= 0.5;
         diagnosis.solved += solved >= 0.5;
         diagnosis.correct += correct;
-        std::fprintf(stderr, "    GT %zu obj %d visib %.2f depth %.2f support %.2f: best region IoU %.2f, ranked %.2f, solved %.2f, %s\n", g,
-                     gt.obj_id, gt.info->visib_fract, has_depth, on_support, formed, ranked, solved, correct ? "found" : "MISSED");
+        std::fprintf(stderr, "    GT %zu obj %d visib %.2f depth %.2f support %.2f raised %.2f: best region IoU %.2f, ranked %.2f, solved %.2f, %s\n",
+                     g, gt.obj_id, gt.info->visib_fract, has_depth, on_support, raised, formed, ranked, solved, correct ? "found" : "MISSED");
       }
     }
     if (!args.pictures_dir.empty()) {
