@@ -96,7 +96,10 @@ PoseResult EstimatePoseOnMask(const Frame& frame, const Instance& instance, cons
       return fail(Termination::kNoHypothesis,
                   (no_hypothesis.empty() ? std::string("no hypothesis from ORB-PnP") : no_hypothesis) +
                       (context.bank.ppf.empty() || !options.use_ppf ? std::string() : "; point-pair features gave no pose") +
-                      (options.use_silhouettes ? "; no template outline matched the mask's" : ""));
+                      (!options.use_silhouettes || options.silhouette_hypotheses == 0 ? std::string()
+                       : observation.is_box || observation.wider_than_object
+                           ? std::string("; no outline read (a box, or a mask wider than the object)")
+                           : std::string("; no template outline matched the mask's")));
     }
     std::vector<Hypothesis> kept = RunObservableStage(context, search.hypotheses);  // stage 3 (eq. 7)
     const IcpOutcome icp = RunIcpStage(context, &kept);                              // stage 4

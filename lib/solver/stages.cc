@@ -284,6 +284,21 @@ std::string RunSearchStages(const SolveContext& c, Search* search) {
   return "";
 }
 
+namespace {
+
+// False when merging is on and `pose` equals (modulo the symmetries) one of the first
+// `count` hypotheses of the search: a later source adds only poses the earlier ones lack.
+bool DistinctFromFirst(const SolveContext& c, const Search& search, size_t count, const Eigen::Isometry3d& pose,
+                       double distinct_m) {
+  if (!c.options.merge_pnp_poses) return true;
+  for (size_t k = 0; k < count; ++k) {
+    if (c.comparer.Within(pose, search.hypotheses[k].cam_from_object, distinct_m)) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 void RunPpfStage(const SolveContext& c, Search* search) {
   if (!c.options.use_ppf || c.bank.ppf.empty() || c.observation.search_regions.empty()) return;
   if (!search->hypotheses.empty() && c.clock->OutOfTime(kPnpBudgetShare)) return;
@@ -300,11 +315,7 @@ void RunPpfStage(const SolveContext& c, Search* search) {
   const size_t pnp_count = search->hypotheses.size();
   for (const PpfPose& pose : poses) {
     stages.ppf_poses.push_back(pose.cam_from_object);
-    bool distinct = true;
-    for (size_t k = 0; k < pnp_count && distinct && c.options.merge_pnp_poses; ++k) {
-      distinct = !c.comparer.Within(pose.cam_from_object, search->hypotheses[k].cam_from_object, distinct_m);
-    }
-    if (!distinct) continue;
+    if (!DistinctFromFirst(c, *search, pnp_count, pose.cam_from_object, distinct_m)) continue;
     search->hypotheses.push_back(Hypothesis{pose.cam_from_object, kPpfSource});
     ++stages.ppf_distinct;
   }
@@ -373,11 +384,7 @@ void RunSilhouetteStage(const SolveContext& c, Search* search) {
   RasterImage scratch;
   for (const SilhouettePose& pose : poses) {
     const Eigen::Isometry3d cam_from_object = OntoObservedDepth(c, pose.cam_from_object, &scratch);
-    bool distinct = true;
-    for (size_t k = 0; k < earlier && distinct && c.options.merge_pnp_poses; ++k) {
-      distinct = !same(cam_from_object, search->hypotheses[k].cam_from_object);
-    }
-    if (!distinct) continue;
+    if (!DistinctFromFirst(c, *search, earlier, cam_from_object, distinct_m)) continue;
     search->hypotheses.push_back(Hypothesis{cam_from_object, kSilhouetteSource});
     ++stages.silhouette_distinct;
   }
