@@ -38,15 +38,21 @@ double DepthAt(int u, int v, double height) {
   return kUp.dot(point) / kUp.dot(ray);
 }
 
-// Plates 3 mm thick lying on the floor, depth on 60% of their pixels; their union in
-// scene.plate, the block none.
-FloorScene MakePlates(const std::vector<cv::Rect>& plates) {
+// A grey frame without depth, nothing marked.
+FloorScene EmptyScene() {
   FloorScene scene;
   scene.frame.camera = kCamera;
   scene.frame.rgb = cv::Mat(480, 640, CV_8UC3, cv::Scalar(90, 90, 90));
   scene.frame.depth = cv::Mat::zeros(480, 640, CV_32F);
   scene.plate = cv::Mat::zeros(480, 640, CV_8U);
   scene.block = cv::Mat::zeros(480, 640, CV_8U);
+  return scene;
+}
+
+// Plates 3 mm thick lying on the floor, depth on 60% of their pixels; their union in
+// scene.plate, the block none.
+FloorScene MakePlates(const std::vector<cv::Rect>& plates) {
+  FloorScene scene = EmptyScene();
   for (const cv::Rect& plate : plates) scene.plate(plate).setTo(255);
   std::mt19937 random(11);
   std::normal_distribution<double> noise(0.0, 0.0007);
@@ -66,12 +72,7 @@ double Iou(const cv::Mat& a, const cv::Mat& b) {
 }
 
 FloorScene MakeScene(double plate_thickness_m) {
-  FloorScene scene;
-  scene.frame.camera = kCamera;
-  scene.frame.rgb = cv::Mat(480, 640, CV_8UC3, cv::Scalar(90, 90, 90));
-  scene.frame.depth = cv::Mat::zeros(480, 640, CV_32F);
-  scene.plate = cv::Mat::zeros(480, 640, CV_8U);
-  scene.block = cv::Mat::zeros(480, 640, CV_8U);
+  FloorScene scene = EmptyScene();
   std::mt19937 random(7);
   std::normal_distribution<double> noise(0.0, 0.0007);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
