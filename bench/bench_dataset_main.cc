@@ -163,6 +163,9 @@ int main(int argc, char** argv) {
   bool unseen_hidden = false;
   app.add_flag("--unseen-hidden", unseen_hidden,
                "a rendered pixel outside the mask without observed depth counts for nothing (ScoreOptions::unseen_is_hidden)");
+  int unseen_area_px = -1;
+  app.add_option("--unseen-area-px", unseen_area_px,
+                 "--unseen-hidden: a depthless pixel is hidden only in a depthless area this wide, image pixels (GridOptions::unseen_area_min_px; 0 = every one; default: solver's)");
   app.add_flag("--no-dedupe", no_dedupe, "keep hypotheses equal modulo symmetry as separate K slots (ablation)");
   // Speed schedule (issue 13), each switchable for the ablation table.
   bool no_simd_match = false;
@@ -188,6 +191,9 @@ int main(int argc, char** argv) {
   app.add_option("--unsure-score", unsure_score,
                  "the depth regions are solved too when the mask's answer has S_A above this (ambiguous answers: the solver's unsure_ambiguous_score; 2 = only for wide masks and boxes; default: solver's)");
   bool no_neighbours = false;
+  bool no_duplicates = false;
+  app.add_flag("--no-resolve-duplicates", no_duplicates,
+               "keep two answers of one object at one place (SolverOptions::resolve_duplicates; ablation)");
   app.add_flag("--no-neighbours", no_neighbours,
                "solve each instance alone: no second pass of an image's doubtful instances without the pixels their "
                "confident neighbours explain (SolverOptions::explain_neighbours; ablation)");
@@ -368,6 +374,7 @@ int main(int argc, char** argv) {
     if (silhouette_hypotheses >= 0) options.silhouette_hypotheses = silhouette_hypotheses;
     if (no_occlusion) options.score.occlusion_margin_m = 0.0;
     if (unseen_hidden) options.score.unseen_is_hidden = true;
+    if (unseen_area_px >= 0) options.selection_grid.unseen_area_min_px = options.refine_grid.unseen_area_min_px = unseen_area_px;
     options.mask_trust = g6d::ParseMaskTrust(mask_trust);
     options.split_merged_at_creases = crease_split;
     if (no_dedupe) options.distinct_pose_fraction = 0.0;
@@ -387,6 +394,7 @@ int main(int argc, char** argv) {
     if (max_search_regions >= 0) options.max_search_regions = max_search_regions;
     if (region_candidates >= 0) options.region_candidates = region_candidates;
     if (no_neighbours) options.explain_neighbours = false;
+    if (no_duplicates) options.resolve_duplicates = false;
     if (unsure_score >= 0.0) options.unsure_score = unsure_score;
     if (pnp_min_quality >= 0.0) options.pnp_min_quality_ratio = pnp_min_quality;
     options.post_refine = post_refine;
@@ -446,7 +454,7 @@ int main(int argc, char** argv) {
                    "icp_iterations,answer_set_rank,answer_quality_ratio,ppf_hypotheses,ppf_distinct,answer_from_ppf,"
                    "silhouette_hypotheses,silhouette_distinct,answer_from_silhouette,"
                    "on_surface,free_space,contour_support,mask_iou,mask_wider,mask_is_box,depth_region_chosen,"
-                   "neighbour_answer_chosen%s\n",
+                   "neighbour_answer_chosen,duplicate_answer%s\n",
                    unknown_identity ? ",chosen_id,right_identity,true_object_score,best_other_id,best_other_score,"
                                       "candidates_solved,screened_out,identify_ms"
                                     : "");
@@ -683,17 +691,15 @@ int main(int argc, char** argv) {
           std::fprintf(records, ",%d,%d,%d", s.silhouette_hypotheses, s.silhouette_distinct,
                        s.answer_from_silhouette ? 1 : 0);
           if (result.success && !unknown_identity) {
-            // The answer against the whole frame (as detection's answers are checked).
-            const g6d::DetectOptions frame_check;
-            const g6d::FrameCheck check = g6d::CheckAgainstFrame(frame, object.bank, result.cam_from_object,
-                                                                 frame_check.free_space_fraction * object.bank.diameter_m,
-                                                                 frame_check.ppf_contour_step_m);
+            // The answer against the whole frame (the solve's check, as detection's answers').
+            const g6d::FrameCheck& check = result.frame_check;
             std::fprintf(records, ",%.4f,%.4f,%.4f", check.on_surface, check.free_space, check.contour_support);
           } else {
             std::fprintf(records, ",,,");
           }
-          std::fprintf(records, ",%.4f,%d,%d,%d,%d", result.mask_iou, s.mask_wider_than_object ? 1 : 0,
-                       s.mask_is_box ? 1 : 0, s.depth_region_chosen ? 1 : 0, s.neighbour_answer_chosen ? 1 : 0);
+          std::fprintf(records, ",%.4f,%d,%d,%d,%d,%d", result.mask_iou, s.mask_wider_than_object ? 1 : 0,
+                       s.mask_is_box ? 1 : 0, s.depth_region_chosen ? 1 : 0, s.neighbour_answer_chosen ? 1 : 0,
+                       s.duplicate_answer ? 1 : 0);
           if (unknown_identity) {
             // The true object's S and the best other object's: the margin identity was decided by.
             double true_score = 2.0, other_score = 2.0;

@@ -1,22 +1,29 @@
 #!/usr/bin/env python3
-"""Fits the solver's confidence: P(pose within ADD(-S) 0.1 d) as a logistic in S_A and the
-ambiguity flag,
+"""Fits the confidence of an answer to a mask (SolverOptions::confidence and
+wide_mask_confidence): P(pose within ADD(-S) 0.1 d) as a logistic in what the answer has,
 
-    confidence = 1 / (1 + exp(-(bias + score_weight * S_A + ambiguous_weight * ambiguous)))
+    S_A, ambiguous, on_surface and contour_support (the answer against the whole frame,
+    FrameCheck), mask_iou (the mask its pose implies against the caller's mask),
 
-on the per-instance records of g6d-bench-dataset (--records FILE.csv) of several datasets,
-and measures it honestly: leave-one-dataset-out (fit on all other datasets, measure on the
-held-out one), so no image of a measured dataset was seen by its fit. Per dataset it prints
-a reliability table (confidence bin vs observed accuracy), the expected calibration error
-(ECE), the Brier score, and the misses with confidence >= 0.9. The old one-feature LM-O fit
-(slope 7.25, midpoint 0.673) is measured beside it.
+    confidence = 1 / (1 + exp(-(bias + score * S_A + ambiguous * [ambiguous] + on_surface * on
+                                 + contour * contour + mask_iou * mask_iou)))
 
-    python3 scripts/calibrate_confidence.py lmo=out/cal/lmo.csv ycbv_clutter=out/cal/ycbv_clutter.csv \\
-        ycbv_real=out/cal/ycbv_real.csv sample=out/cal/sample.csv
+fitted apart for masks that fit the object and for masks wider than it or boxes (the records'
+mask_wider and mask_is_box): there an answer that explains one object of the mask may be on
+the wrong one, whatever its own evidence. On the per-instance records of g6d-bench-dataset
+(--records FILE.csv) of several datasets, measured honestly: leave-one-object-out over all
+datasets pooled (every answer predicted by a fit that saw no answer of its object) and
+leave-one-dataset-out, with a reliability table, the expected calibration error (ECE), the
+Brier score and the wrong answers with confidence >= 0.9, beside the confidence the answers
+had. The fit from S_A and the ambiguity alone (confidence_bias, confidence_score_weight,
+confidence_ambiguous_weight: tracking's answers, which have no frame check) is printed too.
+
+    python3 scripts/calibrate_confidence.py synth_dev=out/c/synth_gt.rec.csv,out/c/synth_cut.rec.csv \
+        lmo=out/c/lmo_gt.rec.csv ycbv_clutter=... ycbv_real=...
 
 A dataset may have several record files, comma-separated (its GT masks and its degraded
-masks: lmo=out/c/lmo_none.records.csv,out/c/lmo_cut.records.csv); they are one dataset for
-the held-out splits, so an object held out is held out in every file.
+masks); they are one dataset for the held-out splits, so an object held out is held out in
+every file.
 
 No numpy needed: a small Newton's method with an L2 penalty (1e-3).
 """
@@ -24,7 +31,7 @@ import csv
 import math
 import sys
 
-OLD_SLOPE, OLD_MIDPOINT = 7.25, 0.673
+WEIGHTS = ["bias", "score", "ambiguous", "on_surface", "contour", "mask_iou"]
 
 
 def load(paths):
@@ -34,15 +41,47 @@ def load(paths):
             for r in csv.DictReader(f):
                 if r["success"] != "1":
                     continue
+                number = lambda key: float(r[key]) if r.get(key) not in (None, "") else 0.0  # noqa: E731
                 rows.append({"s": float(r["score"]), "amb": int(r.get("ambiguous", "0") or 0), "y": int(r["correct"]),
-                             "obj": int(r["obj_id"]), "had": float(r["confidence"]), "file": path})
+                             "obj": int(r["obj_id"]), "had": float(r["confidence"]), "file": path,
+                             "on": number("on_surface"), "contour": number("contour_support"),
+                             "miou": number("mask_iou"), "wide": number("mask_wider") > 0 or number("mask_is_box") > 0,
+                             "dup": number("duplicate_answer") > 0})
     if not rows:
         sys.exit(f"{paths}: no successful estimates")
     return rows
 
 
 def features(r):
+    """S_A and the ambiguity alone (ConfidenceFromScore)."""
     return [1.0, r["s"], float(r["amb"])]
+
+
+def answer_features(r):
+    return [1.0, r["s"], float(r["amb"]), r["on"], r["contour"], r["miou"]]
+
+
+def wide_features(r):
+    """A wide mask or a box: the frame check is left out. It says that the pose lies well on
+    an object of the mask, not that it is the one the caller meant."""
+    return [1.0, r["s"], float(r["amb"]), 0.0, 0.0, r["miou"]]
+
+
+class Split:
+    """Two logistic fits: masks that fit the object, and wide masks or boxes."""
+
+    def __init__(self, rows):
+        # Answers on another answer's instance (duplicate_answer) are left out: their
+        # confidence is bounded by that answer's (ExplainAwayNeighbours), not by this fit.
+        fitting = [r for r in rows if not r["wide"] and not r["dup"]]
+        wide = [r for r in rows if r["wide"] and not r["dup"]]
+        self.fit = fit(fitting, features=answer_features) if fitting else [0.0] * len(WEIGHTS)
+        self.wide = fit(wide, features=wide_features) if wide else self.fit
+
+    def __call__(self, r):
+        if r["wide"]:
+            return predict(self.wide, r, features=wide_features)
+        return predict(self.fit, r, features=answer_features)
 
 
 def sigmoid(x):
@@ -92,10 +131,6 @@ def predict(w, r, features=features):
     return sigmoid(sum(wi * xi for wi, xi in zip(w, features(r))))
 
 
-def predict_old(r):
-    return sigmoid(-OLD_SLOPE * (r["s"] - OLD_MIDPOINT))
-
-
 def report(rows, confidence, title):
     bins = [[] for _ in range(10)]
     brier = 0.0
@@ -129,31 +164,36 @@ def main():
     for arg in sys.argv[1:]:
         name, path = arg.split("=", 1)
         datasets[name] = load(path)
+    duplicates = sum(r["dup"] for rows in datasets.values() for r in rows)
+    if duplicates:
+        print(f"{duplicates} answers flagged duplicate_answer are left out (their confidence is at most 1 - "
+              "their twin's); the tables below are of the rest")
+        datasets = {name: [r for r in rows if not r["dup"]] for name, rows in datasets.items()}
     everything = [r for rows in datasets.values() for r in rows]
+    model = Split(everything)
+    print(f"fit on all {len(everything)} answers of {', '.join(datasets)} "
+          f"({sum(r['wide'] for r in everything)} to wide masks or boxes):")
+    for name, w in (("confidence", model.fit), ("wide_mask_confidence", model.wide)):
+        print(f"  {name} = {{{', '.join(f'{x:.3f}' for x in w)}}};  // {', '.join(WEIGHTS)}")
     w = fit(everything)
-    print(f"fit on all {len(everything)} estimates of {', '.join(datasets)}:")
-    print(f"  confidence_bias = {w[0]:.3f}, confidence_score_weight = {w[1]:.3f}, "
+    print(f"  S_A alone: confidence_bias = {w[0]:.3f}, confidence_score_weight = {w[1]:.3f}, "
           f"confidence_ambiguous_weight = {w[2]:.3f}")
     for name, rows in datasets.items():
         if len(datasets) > 1:
-            others = [r for other, o in datasets.items() if other != name for r in o]
-            held = fit(others)
-            report(rows, lambda r, held=held: predict(held, r),
-                   f"{name}, held out (fit on the other datasets: bias {held[0]:.2f}, S {held[1]:.2f}, "
-                   f"ambiguous {held[2]:.2f})")
-        report(rows, predict_old, f"{name}, old LM-O fit (slope {OLD_SLOPE}, midpoint {OLD_MIDPOINT})")
-    report(everything, lambda r: predict(w, r), "all datasets, in-sample fit")
+            held = Split([r for other, o in datasets.items() if other != name for r in o])
+            report(rows, held, f"{name}, held out (fit on the other datasets)")
+        report(rows, lambda r: r["had"], f"{name}, the confidence the answers had")
+    report(everything, model, "all datasets, in-sample fit")
     # Leave one object out over all datasets pooled: every answer is predicted by a fit that
-    # saw no answer of its object (LM-O is one scene, and only it has misses, so holding out
-    # whole datasets leaves fits without a single miss; objects are the finer honest split).
+    # saw no answer of its object (objects are the finer honest split: a dataset held out
+    # whole leaves the fit without the kind of scene it shows).
     groups = sorted({(name, r["obj"]) for name, rows in datasets.items() for r in rows})
     held_out = {}
     for group in groups:
-        train = [r for name, rows in datasets.items() for r in rows if (name, r["obj"]) != group]
-        weights = fit(train)
+        held = Split([r for name, rows in datasets.items() for r in rows if (name, r["obj"]) != group])
         for r in datasets[group[0]]:
             if r["obj"] == group[1]:
-                held_out[id(r)] = predict(weights, r)
+                held_out[id(r)] = held(r)
     print(f"\nleave-one-object-out ({len(groups)} objects over {len(datasets)} datasets):")
     for name, rows in datasets.items():
         report(rows, lambda r: held_out[id(r)], f"{name}, leave-one-object-out")

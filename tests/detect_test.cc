@@ -246,6 +246,61 @@ TEST_F(DetectTest, AMaskOverTwoTouchingObjectsIsSolvedOnTheObjectsOwnRegion) {
   EXPECT_GT(on_mask.score, result.score);
 }
 
+// Two masks merged over the same two touching boxes (a bin's parts, a segmenter that merged
+// them twice): both solves answer on one box. Two requests are two instances: the answer of
+// higher S_A (here the later one, on a tie) is solved again without its twin's pixels, and
+// lands on the other box.
+TEST_F(DetectTest, TwoAnswersOnOneInstanceAreToldApart) {
+  const Eigen::Isometry3d left = OnTable(Box(), -0.05, 0.0);
+  const Eigen::Isometry3d right = OnTable(Box(), -0.05 + Box().size.x() + 0.001, 0.0);
+  const Scene scene = RenderScene({&Box(), &Box()}, {left, right}, 13);
+  const cv::Mat merged = Silhouette(Box(), left) | Silhouette(Box(), right);
+  const std::vector<Instance> instances{{Box().id, merged}, {Box().id, merged.clone()}};
+  const std::vector<const TemplateBank*> banks{&Box().bank, &Box().bank};
+  const SolverOptions options = QuickSolver();
+  ThreadPool pool(2);
+  std::vector<PoseResult> answers;
+  for (size_t k = 0; k < 2; ++k) answers.push_back(EstimatePose(scene.frame, instances[k], *banks[k], options, &pool));
+  ASSERT_TRUE(answers[0].success && answers[1].success) << answers[0].message << " / " << answers[1].message;
+  ASSERT_TRUE(SamePlace(answers[0], answers[1], Box().bank));
+  EXPECT_EQ(DuplicateAnswers(instances, banks, answers, options), (std::vector<int>{-1, 0}));
+  const std::vector<PoseResult> first = answers;
+  ExplainAwayNeighbours(scene.frame, instances, banks, {}, options, &pool, &answers);
+  ASSERT_TRUE(answers[0].success && answers[1].success) << answers[1].message;
+  EXPECT_FALSE(SamePlace(answers[0], answers[1], Box().bank));
+  EXPECT_TRUE(answers[0].cam_from_object.isApprox(first[0].cam_from_object));  // the place's keeper stays
+  EXPECT_TRUE(answers[1].stages.neighbour_answer_chosen);
+  auto add_to = [&](const PoseResult& r, const Eigen::Isometry3d& truth) {
+    return ComputeAdd(r.cam_from_object, truth, Box().mesh.vertices);
+  };
+  const double limit = 0.1 * Box().bank.diameter_m;
+  const bool first_left = add_to(answers[0], left) < limit;
+  EXPECT_TRUE(first_left || add_to(answers[0], right) < limit);
+  EXPECT_LT(add_to(answers[1], first_left ? right : left), limit) << "S " << answers[1].score;
+  EXPECT_TRUE(DuplicateAnswers(instances, banks, answers, options) == (std::vector<int>{-1, -1}));
+  EXPECT_FALSE(answers[0].stages.duplicate_answer || answers[1].stages.duplicate_answer);
+  // Two requests with one box's own mask: nothing is left for the second, whose answer stays
+  // on the box, flagged, and at most 1 - the first's confidence sure.
+  const std::vector<Instance> same{{Box().id, Silhouette(Box(), left)}, {Box().id, Silhouette(Box(), left)}};
+  std::vector<PoseResult> twice;
+  for (size_t k = 0; k < 2; ++k) twice.push_back(EstimatePose(scene.frame, same[k], *banks[k], options, &pool));
+  ASSERT_TRUE(twice[0].success && twice[1].success);
+  ExplainAwayNeighbours(scene.frame, same, banks, {}, options, &pool, &twice);
+  ASSERT_TRUE(twice[0].success && twice[1].success);
+  ASSERT_TRUE(SamePlace(twice[0], twice[1], Box().bank));
+  EXPECT_FALSE(twice[0].stages.duplicate_answer);
+  EXPECT_TRUE(twice[1].stages.duplicate_answer);
+  EXPECT_GT(twice[0].confidence, 0.5);
+  EXPECT_LE(twice[1].confidence, 1.0 - twice[0].confidence + 1e-12);
+  // Off: the two answers stay on one box.
+  SolverOptions off = options;
+  off.resolve_duplicates = false;
+  EXPECT_EQ(DuplicateAnswers(instances, banks, first, off), (std::vector<int>{-1, -1}));
+  std::vector<PoseResult> kept = first;
+  ExplainAwayNeighbours(scene.frame, instances, banks, {}, off, &pool, &kept);
+  EXPECT_TRUE(SamePlace(kept[0], kept[1], Box().bank));
+}
+
 // ExplainAwayNeighbours (neighbours.h) lives here for the scenes and banks of this suite.
 TEST_F(DetectTest, ANeighboursConfidentAnswerTakesItsPixelsOutOfAMergedMask) {
   // Two boxes touch; one instance's mask merged both, the other's is its own. With the

@@ -114,7 +114,7 @@ TEST(FindLayerViolations, FindsEveryForbiddenKindInATree) {
 const std::vector<std::string> kSolverOrder = {
     // the algorithms
     "segments", "plane", "observation", "region", "score", "match", "icp", "pnp", "mhpo", "ppf",
-    "silhouette_poses",
+    "silhouette_poses", "frame_check",
     // what every stage shares: the options, the result, the depth's candidate regions
     "solver_options", "result", "detect_options", "proposals",
     // the solve on a mask, stage by stage

@@ -3,6 +3,7 @@
 #include "solver/pipeline.h"
 
 #include <atomic>
+#include <cmath>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -115,6 +116,48 @@ TEST_F(PipelineTest, AnErodedMaskIsCorrectedByTheDepthAndItsFitIsReported) {
   ASSERT_TRUE(as_given.success) << as_given.message;
   EXPECT_LT(result.score, as_given.score);
   EXPECT_EQ(as_given.mask_refined_rounds, 0);
+}
+
+// The answer is checked against the whole frame, and its confidence reads that check and the
+// mask's fit: the right pose lies on the observed surface, and the confidence is the logistic
+// of SolverOptions::confidence; a pose moved 5 cm behind the surface sees through nothing
+// but lies on none of it. A box is read with wide_mask_confidence.
+TEST_F(PipelineTest, TheAnswerIsCheckedAgainstTheFrameAndItsConfidenceReadsIt) {
+  ThreadPool pool(2);
+  Eigen::Isometry3d truth;
+  const test::SyntheticView view = RandomView(11, &truth);
+  const Frame frame = MakeFrame(view);
+  SolverOptions options;
+  const PoseResult result = EstimatePose(frame, {"box", view.mask}, *bank_, options, &pool);
+  ASSERT_TRUE(result.success) << result.message;
+  EXPECT_GT(result.frame_check.on_surface, 0.9);
+  EXPECT_LT(result.frame_check.free_space, 0.05);
+  // (contour_support is 0: the view has depth on the box alone, so its outline meets no depth.)
+  const ConfidenceWeights& w = options.confidence;
+  const double logit = w.bias + w.score * result.score + (result.ambiguous ? w.ambiguous : 0.0) +
+                       w.on_surface * result.frame_check.on_surface + w.contour * result.frame_check.contour_support +
+                       w.mask_iou * result.mask_iou;
+  EXPECT_NEAR(result.confidence, 1.0 / (1.0 + std::exp(-logit)), 1e-12);
+  EXPECT_GT(result.confidence, 0.9);
+  // The same answer with less of it on the surface, or on a box, is less sure.
+  PoseResult off = result;
+  off.frame_check.on_surface = 0.3;
+  EXPECT_LT(AnswerConfidence(options, off), result.confidence);
+  PoseResult boxed = result;
+  boxed.stages.mask_is_box = true;
+  options.wide_mask_confidence = {0.0, -1.0, 0.0, 0.0, 0.0, 0.0};
+  EXPECT_NEAR(AnswerConfidence(options, boxed), 1.0 / (1.0 + std::exp(result.score)), 1e-12);
+  PoseResult failed;
+  EXPECT_EQ(AnswerConfidence(options, failed), 0.0);
+  // The check itself: behind the surface the camera sees nothing of the pose's own surface.
+  Eigen::Isometry3d behind = result.cam_from_object;
+  behind.translation() += 0.05 * behind.translation().normalized();
+  const FrameCheck far = CheckAgainstFrame(frame, *bank_, behind, options.check_surface_fraction * bank_->diameter_m,
+                                           options.check_step_m);
+  EXPECT_LT(far.on_surface, 0.1);
+  // Bad weights are named.
+  options.confidence.score = 1.0;
+  EXPECT_NE(options.Check().find("SolverOptions.confidence.score"), std::string::npos) << options.Check();
 }
 
 // A segmenter merged the object with its neighbour: a textured slab beside it, 8 cm nearer
@@ -412,7 +455,8 @@ TEST(StageTimes, NamesEveryStageInOrderAndSumsToAtMostTheTotal) {
   s.neighbours_ms = 12;
   s.ppf_ms = 13;
   s.silhouette_ms = 14;
-  s.total_ms = 107;
+  s.frame_check_ms = 15;
+  s.total_ms = 121;
   const std::vector<StageTime> times = StageTimes(s);
   std::vector<std::string> names;
   double sum = 0.0;
@@ -421,10 +465,10 @@ TEST(StageTimes, NamesEveryStageInOrderAndSumsToAtMostTheTotal) {
     if (names.back() != "total") sum += t.ms;
   }
   EXPECT_EQ(names, (std::vector<std::string>{"prepare", "features", "match", "pnp", "ppf", "silhouette", "observable", "icp",
-                                             "mhpo", "post_refine", "finalists", "mask_refine", "depth_regions",
+                                             "mhpo", "post_refine", "finalists", "mask_refine", "frame_check", "depth_regions",
                                              "neighbours", "total"}));
-  EXPECT_EQ(sum, 105.0);
-  EXPECT_EQ(times.back().ms, 107.0);
+  EXPECT_EQ(sum, 120.0);
+  EXPECT_EQ(times.back().ms, 121.0);
 }
 
 }  // namespace

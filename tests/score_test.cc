@@ -111,6 +111,48 @@ TEST(MakeEvaluationGrid, DownscalesAroundTheMask) {
   EXPECT_DOUBLE_EQ(grid.camera.cx, (320.0 - 100.0) * 0.25);
 }
 
+TEST(MakeEvaluationGrid, AThinDepthlessBandIsNoUnseenAreaAWideHoleIs) {
+  // A sensor loses depth in a thin band along an edge (3 px, left of the mask); an occluder
+  // it cannot see leaves a wide hole (40 x 40 px, right of the mask).
+  const Camera camera{500, 500, 320, 240, 640, 480};
+  cv::Mat mask = cv::Mat::zeros(480, 640, CV_8U);
+  mask(cv::Rect(200, 200, 100, 100)).setTo(255);
+  cv::Mat depth(480, 640, CV_32F, cv::Scalar(0.8f));
+  depth(cv::Rect(197, 200, 3, 100)).setTo(0.0f);
+  depth(cv::Rect(300, 220, 40, 40)).setTo(0.0f);
+  depth(cv::Rect(220, 220, 30, 30)).setTo(0.0f);  // the object's own depthless metal
+  GridOptions options;
+  options.max_side_px = 4096;  // no downscaling: grid pixel = image pixel
+  ASSERT_EQ(options.unseen_area_min_px, 9);
+  const EvaluationGrid grid = MakeEvaluationGrid(camera, mask, depth, options);
+  ASSERT_EQ(grid.unseen_area.size(), grid.mask.size());
+  const int x0 = 150, y0 = 150;  // the ROI's corner: the mask box less half its side
+  ASSERT_DOUBLE_EQ(grid.camera.cx, 320.0 - x0);
+  auto at = [&](int x, int y) { return grid.unseen_area.at<uint8_t>(y - y0, x - x0); };
+  EXPECT_EQ(at(198, 250), 0);    // the band
+  EXPECT_EQ(at(300, 220), 255);  // the hole, corner to corner
+  EXPECT_EQ(at(339, 259), 255);
+  EXPECT_EQ(at(320, 240), 255);
+  EXPECT_EQ(at(235, 235), 0);    // inside the mask: never an occluder's
+  EXPECT_EQ(at(330, 300), 0);    // background with depth
+  EXPECT_EQ(cv::countNonZero(grid.unseen_area), 40 * 40);
+  // The band counts against a pose that spills into it; the hole hides what lies behind it.
+  RasterImage rendered;
+  rendered.depth = cv::Mat::zeros(grid.mask.size(), CV_32F);
+  rendered.depth(cv::Rect(197 - x0, 200 - y0, 103, 100)).setTo(0.8f);  // 3 columns over the band
+  ScoreOptions score;
+  score.unseen_is_hidden = true;
+  EXPECT_EQ(ScoreRendering(grid, rendered, 0.8, score).occluded_pixels, 0);
+  rendered.depth.setTo(0.0f);
+  rendered.depth(cv::Rect(200 - x0, 220 - y0, 110, 40)).setTo(0.8f);  // 10 columns into the hole
+  EXPECT_EQ(ScoreRendering(grid, rendered, 0.8, score).occluded_pixels, 10 * 40);
+  // 0: every depthless pixel outside the mask may be an occluder's (no area is made).
+  options.unseen_area_min_px = 0;
+  EXPECT_TRUE(MakeEvaluationGrid(camera, mask, depth, options).unseen_area.empty());
+  options.unseen_area_min_px = -1;
+  EXPECT_NE(options.Check().find("unseen_area_min_px"), std::string::npos);
+}
+
 TEST(MeanMaskedDepth, IgnoresInvalidPixels) {
   cv::Mat mask = cv::Mat::zeros(4, 4, CV_8U);
   mask(cv::Rect(0, 0, 2, 2)).setTo(255);

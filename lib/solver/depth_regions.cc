@@ -93,8 +93,6 @@ PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, con
     // The answer's stage counts and poses are its own solve's; the times are of the work
     // this instance cost: the solve on the mask, then the regions.
     CopyMaskSolveReport(stages, &chosen.stages);
-    // An answer to a mask: the mask path's calibration of S_A, like every other one.
-    chosen.confidence = ConfidenceFromScore(options, chosen.score, chosen.ambiguous);
     StageReport& merged = chosen.stages;
     merged.total_ms = stages.total_ms;
     merged.depth_regions_solved = stages.depth_regions_solved;
@@ -102,6 +100,9 @@ PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, con
     merged.mask_answer_score = stages.mask_answer_score;
     chosen.truncated = chosen.truncated || on_mask.truncated;
     chosen.mask_iou = MaskIntersectionOverUnion(chosen.corrected_mask, instance.mask > 0);
+    // An answer to a mask: the mask path's confidence, like every other one (the mask's flags
+    // are the mask's: CopyMaskSolveReport).
+    chosen.confidence = AnswerConfidence(options, chosen);
     return chosen;
   }
   on_mask.stages = std::move(stages);

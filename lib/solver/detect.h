@@ -31,6 +31,7 @@
 #include "core/executor.h"
 #include "core/frame.h"
 #include "solver/detect_options.h"
+#include "solver/frame_check.h"
 #include "solver/proposals.h"
 #include "solver/result.h"
 #include "solver/segments.h"
@@ -69,19 +70,6 @@ struct CandidateTrial {
   double region_iou = 0.0;   ///< IoU of the answer's corrected mask with the region solved
   double ms = 0.0;           ///< solve time
 };
-
-/// An answer checked against the whole frame (not only its region), at its pose.
-struct FrameCheck {
-  int rendered_pixels = 0;       ///< rendered pixels (in the image) with observed depth
-  double on_surface = 0.0;       ///< fraction of them whose depth lies on the rendered surface
-  double free_space = 0.0;       ///< ... whose depth lies behind it: the camera sees through the object
-  double contour_support = 0.0;  ///< fraction of the outline where the depth steps
-};
-
-/// Renders `bank`'s online mesh at `cam_from_object` into the frame and reads the depth:
-/// surface tolerance `surface_m`, outline step `step_m`.
-FrameCheck CheckAgainstFrame(const Frame& frame, const TemplateBank& bank, const Eigen::Isometry3d& cam_from_object,
-                             double surface_m, double step_m);
 
 /// The confidence of an answer with `result` (S_A, ambiguous), `check` (the frame at the
 /// pose), `region_iou` and the region's

@@ -9,6 +9,7 @@
 #include "core/timer.h"
 #include "render/raster.h"
 #include "solver/finalists.h"
+#include "solver/frame_check.h"
 #include "solver/mask_refine.h"
 #include "solver/mask_stage.h"
 #include "solver/solve_context.h"
@@ -31,11 +32,17 @@ void ReportObservation(const Observation& observation, PoseResult* result) {
   stages.mask_is_box = observation.is_box;
 }
 
-// S_A, the confidence and the message of a successful solve (cut short: says so).
-void FinishAnswer(const SolverOptions& options, const SolveClock& clock, PoseResult* result) {
+// S_A, the check against the frame, the confidence and the message of a successful solve
+// (cut short: says so).
+void FinishAnswer(const Frame& frame, const TemplateBank& bank, const SolverOptions& options, const SolveClock& clock,
+                  PoseResult* result) {
   result->score = result->details.s;
-  result->confidence = ConfidenceFromScore(options, result->score, result->ambiguous);
   result->success = true;
+  const Stopwatch watch;
+  result->frame_check = CheckAgainstFrame(frame, bank, result->cam_from_object,
+                                          options.check_surface_fraction * bank.diameter_m, options.check_step_m);
+  result->stages.frame_check_ms = watch.ElapsedMs();
+  result->confidence = AnswerConfidence(options, *result);
   result->message = "ok";
   if (!clock.Skipped()) return;
   result->cut_short = true;
@@ -111,7 +118,7 @@ PoseResult EstimatePoseOnMask(const Frame& frame, const Instance& instance, cons
     RefineWithCorrectedMask(frame, instance, bank, options, observation, context.online_score,
                             [&clock] { return clock.OutOfTime(); }, executor, &result);
     stages.mask_refine_ms = watch.ElapsedMs();
-    FinishAnswer(options, clock, &result);
+    FinishAnswer(frame, bank, options, clock, &result);
     stages.total_ms = total.ElapsedMs();
     return result;
   } catch (const std::exception& e) {

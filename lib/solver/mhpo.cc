@@ -180,9 +180,9 @@ void RunRound(const MhpoOptions& options, const ScoreOptions& score_options, con
       const bool in_mask = grid.mask.at<uint8_t>(v, u) != 0;
       // Outside the mask, a pixel the depth puts on the rendered surface is object the mask
       // missed (ScoreOptions::depth_evidence): its depth counts, its mask edge does not.
-      const bool missed = !in_mask && MissedByMask(z, grid.depth.at<float>(v, u),
-                                                   !grid.support.empty() && grid.support.at<uint8_t>(v, u) != 0,
-                                                   score_options);
+      const bool on_support = !grid.support.empty() && grid.support.at<uint8_t>(v, u) != 0;
+      const bool missed = !in_mask && (MissedByMask(z, grid.depth.at<float>(v, u), on_support, score_options) ||
+                                       (!on_support && HoleOnSurface(grid, u, v, z, score_options)));
       // Inside the mask, an occluder the mask leaked onto is not the object (as in S).
       const bool leaked_occluder =
           in_mask && score_options.depth_evidence && IsOccluded(z, grid.depth.at<float>(v, u), score_options);

@@ -20,13 +20,32 @@
 
 namespace g6d {
 
+/// Two answers of one object closer than this fraction of its diameter (the centres of the
+/// mesh at the two poses) are one instance's.
+constexpr double kSamePlaceFraction = 0.1;
+
+/// True when successful answers `a` and `b` of `bank`'s object lie at one place
+/// (kSamePlaceFraction): they are answers on one instance.
+bool SamePlace(const PoseResult& a, const PoseResult& b, const TemplateBank& bank);
+
+/// For each answer, the index of another instance's answer of the same object at the same
+/// place with a lower S_A (on a tie, the lower index), or -1: two requests answered on one
+/// instance (two masks merged over the same parts of a bin). All -1 when
+/// SolverOptions::resolve_duplicates is off.
+std::vector<int> DuplicateAnswers(const std::vector<Instance>& instances, const std::vector<const TemplateBank*>& banks,
+                                  const std::vector<PoseResult>& answers, const SolverOptions& options);
+
 /// Second pass over a frame's answers (SolverOptions::explain_neighbours, MaskTrust::kDepth):
 /// `instances[i]`, solved with `banks[i]` into `(*answers)[i]` (EstimatePose, or any solve
 /// that fills corrected_mask), is solved again on its mask less the pixels of the confident
 /// answers of lower S_A of the other instances (not UnsureOfScore),
 /// when its mask holds more than the object (a merged mask, a box) or its answer is unsure,
 /// and the neighbours explain at least `SolverOptions::neighbour_min_fraction` of its mask.
-/// A lower S_A replaces the answer (StageReport::neighbour_pixels, neighbour_answer_chosen,
+/// An answer with a twin (DuplicateAnswers) is solved again too, without the twin's pixels
+/// whatever the twin's S_A, and any successful answer elsewhere replaces it (two requests
+/// are two instances); an answer still at a twin's place afterwards is flagged
+/// (StageReport::duplicate_answer) and its confidence is at most 1 - the twin's. Otherwise a
+/// lower S_A replaces the answer (StageReport::neighbour_pixels, neighbour_answer_chosen,
 /// neighbours_ms). Every re-solve reads only the first pass's answers, so the result does
 /// not depend on the instances' order. `may_solve_again`: empty, or one flag per instance;
 /// an instance whose flag is 0 keeps its answer (the service's tracked answers: a tracked

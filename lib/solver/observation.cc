@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <vector>
 
@@ -15,6 +16,7 @@ std::string GridOptions::Check() const {
   std::ostringstream out;
   if (!(margin >= 0.0 && margin <= 10.0)) out << "GridOptions.margin must be in [0, 10] (got " << margin << ")";
   else if (max_side_px < 8 || max_side_px > 4096) out << "GridOptions.max_side_px must be in [8, 4096] (got " << max_side_px << ")";
+  else if (unseen_area_min_px < 0 || unseen_area_min_px > 255) out << "GridOptions.unseen_area_min_px must be in [0, 255] (got " << unseen_area_min_px << ")";
   return out.str();
 }
 
@@ -88,6 +90,40 @@ EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, con
   if (!support.empty()) grid.support.create(grid.camera.height, grid.camera.width, CV_8U);
   G6D_CHECK(unsure.empty() || (unsure.type() == CV_8U && unsure.size() == mask.size()));
   if (!unsure.empty()) grid.unsure.create(grid.camera.height, grid.camera.width, CV_8U);
+  // Depthless areas outside the mask at least unseen_area_min_px wide, on the ROI.
+  cv::Mat unseen_area_roi, hole_near_roi, hole_far_roi;
+  if (options.unseen_area_min_px > 0) {
+    const cv::Rect roi(x0, y0, roi_w, roi_h);
+    unseen_area_roi.create(roi_h, roi_w, CV_8U);
+    for (int v = 0; v < roi_h; ++v) {
+      const uint8_t* m = mask.ptr<uint8_t>(y0 + v) + x0;
+      const float* d = depth.ptr<float>(y0 + v) + x0;
+      uint8_t* a = unseen_area_roi.ptr<uint8_t>(v);
+      for (int u = 0; u < roi_w; ++u) a[u] = !m[u] && !(d[u] > 0.0f && std::isfinite(d[u])) ? 255 : 0;
+    }
+    const int side = options.unseen_area_min_px;
+    cv::morphologyEx(unseen_area_roi, unseen_area_roi, cv::MORPH_OPEN,
+                     cv::getStructuringElement(cv::MORPH_RECT, cv::Size(side, side)), cv::Point(-1, -1), 1,
+                     cv::BORDER_REPLICATE);
+    grid.unseen_area.create(grid.camera.height, grid.camera.width, CV_8U);
+    // The valid depth around each pixel: nearest (min over valid) and farthest (max).
+    cv::Mat near(roi_h, roi_w, CV_32F), far(roi_h, roi_w, CV_32F);
+    for (int v = 0; v < roi_h; ++v) {
+      const float* d = depth.ptr<float>(y0 + v) + x0;
+      float* n = near.ptr<float>(v);
+      float* f = far.ptr<float>(v);
+      for (int u = 0; u < roi_w; ++u) {
+        const bool valid = d[u] > 0.0f && std::isfinite(d[u]);
+        n[u] = valid ? d[u] : std::numeric_limits<float>::max();
+        f[u] = valid ? d[u] : 0.0f;
+      }
+    }
+    const cv::Mat square = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(side, side));
+    cv::erode(near, hole_near_roi, square, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+    cv::dilate(far, hole_far_roi, square, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+    grid.hole_near = cv::Mat::zeros(grid.camera.height, grid.camera.width, CV_32F);
+    grid.hole_far = cv::Mat::zeros(grid.camera.height, grid.camera.width, CV_32F);
+  }
   int background = 0, unseen = 0;
   for (int v = 0; v < grid.camera.height; ++v) {
     const int sv = std::min(y1 - 1, y0 + static_cast<int>((v + 0.5) / scale));
@@ -101,6 +137,15 @@ EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, con
       const int su = std::min(x1 - 1, x0 + static_cast<int>((u + 0.5) / scale));
       if (gs != nullptr) gs[u] = s[su] ? 255 : 0;
       if (!unsure.empty()) grid.unsure.at<uint8_t>(v, u) = unsure.at<uint8_t>(sv, su) ? 255 : 0;
+      if (!unseen_area_roi.empty()) {
+        const uint8_t area = unseen_area_roi.at<uint8_t>(sv - y0, su - x0);
+        grid.unseen_area.at<uint8_t>(v, u) = area;
+        const float near = hole_near_roi.at<float>(sv - y0, su - x0);
+        if (!m[su] && !area && !(d[su] > 0.0f && std::isfinite(d[su])) && near < std::numeric_limits<float>::max()) {
+          grid.hole_near.at<float>(v, u) = near;
+          grid.hole_far.at<float>(v, u) = hole_far_roi.at<float>(sv - y0, su - x0);
+        }
+      }
       gm[u] = m[su] ? 255 : 0;
       const float z = d[su];
       gd[u] = (z > 0.0f && std::isfinite(z)) ? z : 0.0f;

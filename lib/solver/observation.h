@@ -37,6 +37,15 @@ struct EvaluationGrid {
   /// sensor sees a background with holes, near 1 where it sees none (a far wall, depth of
   /// the objects alone).
   double unseen_background = 0.0;
+  /// CV_8U 0/255 on the grid: pixels outside the mask without depth that lie in a depthless
+  /// area at least GridOptions::unseen_area_min_px wide (an occluder the sensor could not
+  /// see, ScoreOptions::unseen_is_hidden); empty when that option is 0.
+  cv::Mat unseen_area;
+  /// CV_32F metres on the grid, for a depthless pixel outside the mask in no unseen_area
+  /// (a hole narrower than GridOptions::unseen_area_min_px: speckle on bare metal, a band
+  /// along an edge): the nearest and the farthest valid depth within that square around it;
+  /// 0 elsewhere and where no depth is near. Empty when that option is 0.
+  cv::Mat hole_near, hole_far;
 };
 
 /// Options of MakeEvaluationGrid().
@@ -45,6 +54,11 @@ struct GridOptions {
   double margin = 0.5;
   /// The grid's longer side in pixels (the ROI is downscaled, never upscaled, to it).
   int max_side_px = 128;
+  /// Width in image pixels a depthless area outside the mask must have to enter
+  /// EvaluationGrid::unseen_area (a morphological opening with a square of this side).
+  /// Sensors lose depth in thin bands along every depth step (edges, a projector's shadow);
+  /// a band is no occluder. 0 = every depthless pixel outside the mask is in the area.
+  int unseen_area_min_px = 9;
 
   std::string Check() const;
 };

@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
+#include "solver/frame_check.h"
 #include "solver/mhpo.h"
 #include "solver/score.h"
 #include "solver/solver_options.h"
@@ -88,12 +89,16 @@ struct StageReport {
   /// answers explain (0 = not solved again), and whether the solve without them gave T_A.
   int neighbour_pixels = 0;
   bool neighbour_answer_chosen = false;
+  /// Another instance's answer of the same object lies at the same place with a lower S_A
+  /// (DuplicateAnswers, after the neighbours pass): at most one of the two is right, so the
+  /// confidence is at most 1 - that answer's.
+  bool duplicate_answer = false;
   double best_quality = 0.0;       ///< best Q_j
   double best_e_obs = 1.0;         ///< best E_obs among PnP poses
   double best_s_after_icp = 2.0;   ///< best S after ICP
   double prepare_ms = 0.0, features_ms = 0.0, match_ms = 0.0, pnp_ms = 0.0,
          ppf_ms = 0.0, silhouette_ms = 0.0, observable_ms = 0.0, icp_ms = 0.0, mhpo_ms = 0.0, post_refine_ms = 0.0, finalists_ms = 0.0,
-         mask_refine_ms = 0.0, depth_regions_ms = 0.0, neighbours_ms = 0.0, total_ms = 0.0;
+         mask_refine_ms = 0.0, frame_check_ms = 0.0, depth_regions_ms = 0.0, neighbours_ms = 0.0, total_ms = 0.0;
   int distinct_finalists = 0;         ///< finalists left after merging poses equal modulo symmetry
   int appearance_compared = 0;        ///< finalists whose appearance was scored
   bool appearance_changed = false;    ///< appearance replaced the lowest-S pose as T_A
@@ -153,7 +158,11 @@ struct PoseResult {
   /// The same for the runner-up (valid only when has_runner_up and it was compared).
   double runner_up_appearance_agreement = 0.0;
   bool runner_up_appearance_valid = false;
-  double confidence = 0.0;   ///< in [0, 1], monotone decreasing in S_A
+  /// In [0, 1]: the probability that the pose is right (SolverOptions::confidence).
+  double confidence = 0.0;
+  /// T_A against the whole frame (CheckAgainstFrame; SolverOptions::check_surface_fraction,
+  /// check_step_m); zero when the solve failed.
+  FrameCheck frame_check;
   /// The mask T_A implies: its rendered silhouette less the pixels the depth shows hidden
   /// (CorrectedMask), CV_8U 0/255 frame size; empty when the solve failed.
   cv::Mat corrected_mask;
@@ -166,8 +175,13 @@ struct PoseResult {
 };
 
 /// Confidence in [0, 1] for a score S_A and the ambiguity flag (monotone decreasing in S_A,
-/// lower when ambiguous).
+/// lower when ambiguous): SolverOptions::confidence_bias and the two weights.
 double ConfidenceFromScore(const SolverOptions& options, double score, bool ambiguous);
+
+/// The confidence of a successful answer to a mask (SolverOptions::confidence or, for a mask
+/// wider than the object or a box, wide_mask_confidence): S_A, ambiguous, frame_check and
+/// mask_iou of `result`, which must be set. 0 for a failed one.
+double AnswerConfidence(const SolverOptions& options, const PoseResult& result);
 
 /// Whether a successful answer with S_A `score` is unsure (SolverOptions::unsure_score,
 /// unsure_ambiguous_score): worth a second reading of its mask, and no evidence for its

@@ -67,6 +67,7 @@ PoseScore ScoreRendering(const EvaluationGrid& grid, const RasterImage& rendered
     const float* r = rendered.depth.ptr<float>(v);
     const int* label = by_segment ? grid.segment.ptr<int>(v) : nullptr;
     const uint8_t* unsure = grid.unsure.empty() ? nullptr : grid.unsure.ptr<uint8_t>(v);
+    const uint8_t* unseen_area = grid.unseen_area.empty() ? nullptr : grid.unseen_area.ptr<uint8_t>(v);
     for (int u = 0; u < grid.mask.cols; ++u) {
       bool in_observed = m[u] != 0;
       bool in_rendered = r[u] > 0.0f;
@@ -74,7 +75,7 @@ PoseScore ScoreRendering(const EvaluationGrid& grid, const RasterImage& rendered
         ++score.foreign_pixels;  // another object's segment
         in_observed = false;
       }
-      if (in_rendered && ((!in_observed && HiddenOutsideMask(r[u], d[u], grid, options)) ||
+      if (in_rendered && ((!in_observed && HiddenOutsideMask(r[u], d[u], unseen_area != nullptr ? unseen_area[u] != 0 : !(d[u] > 0.0f), grid, options)) ||
                           (in_observed && options.depth_evidence && IsOccluded(r[u], d[u], options)))) {
         // Hidden by an occluder that no mask covers: neither for nor against. Inside the
         // mask (depth evidence) the mask leaked onto an occluder, or the pose lies behind
@@ -83,7 +84,8 @@ PoseScore ScoreRendering(const EvaluationGrid& grid, const RasterImage& rendered
         ++score.occluded_pixels;
         in_rendered = false;
       } else if (in_rendered && !in_observed) {
-        if (MissedByMask(r[u], d[u], support != nullptr && support[u] != 0, options)) {
+        const bool on_support = support != nullptr && support[u] != 0;
+        if (MissedByMask(r[u], d[u], on_support, options) || (!on_support && HoleOnSurface(grid, u, v, r[u], options))) {
           ++score.recovered_pixels;  // object the mask missed: the depth says so
           in_observed = true;
         }

@@ -86,12 +86,13 @@ inline bool IsOccluded(float rendered_m, float observed_m, const ScoreOptions& o
 }
 
 /// True when a rendered pixel outside the observed mask of `grid` counts for nothing: hidden
-/// behind an observed surface (IsOccluded), or where the sensor saw no depth
-/// (options.unseen_is_hidden, options.max_unseen_background).
-inline bool HiddenOutsideMask(float rendered_m, float observed_m, const EvaluationGrid& grid,
+/// behind an observed surface (IsOccluded), or, with options.unseen_is_hidden, in a depthless
+/// area (`in_unseen_area`: EvaluationGrid::unseen_area, or no observed depth when the grid
+/// has none) where the sensor sees a background (options.max_unseen_background).
+inline bool HiddenOutsideMask(float rendered_m, float observed_m, bool in_unseen_area, const EvaluationGrid& grid,
                               const ScoreOptions& options) {
   return IsOccluded(rendered_m, observed_m, options) ||
-         (options.unseen_is_hidden && !(observed_m > 0.0f) && grid.unseen_background <= options.max_unseen_background);
+         (options.unseen_is_hidden && in_unseen_area && grid.unseen_background <= options.max_unseen_background);
 }
 
 /// True when a grid pixel outside the observed mask, rendered at `rendered_m` > 0 and seen
@@ -100,6 +101,17 @@ inline bool HiddenOutsideMask(float rendered_m, float observed_m, const Evaluati
 inline bool MissedByMask(float rendered_m, float observed_m, bool on_support, const ScoreOptions& options) {
   return options.depth_evidence && !on_support && observed_m > 0.0f &&
          std::abs(observed_m - rendered_m) <= options.surface_tolerance_m;
+}
+
+/// True when grid pixel (u, v), outside the mask and without depth, lies in a thin hole whose
+/// surrounding depth all lies on the rendered surface (EvaluationGrid::hole_near, hole_far,
+/// within options.surface_tolerance_m; ScoreOptions::depth_evidence): speckle on the object
+/// the mask missed, not evidence against the pose.
+inline bool HoleOnSurface(const EvaluationGrid& grid, int u, int v, float rendered_m, const ScoreOptions& options) {
+  if (!options.depth_evidence || grid.hole_near.empty()) return false;
+  const float near = grid.hole_near.at<float>(v, u);
+  return near > 0.0f && std::abs(near - rendered_m) <= options.surface_tolerance_m &&
+         std::abs(grid.hole_far.at<float>(v, u) - rendered_m) <= options.surface_tolerance_m;
 }
 
 /// Scores an already rendered image (on grid.camera) against the grid. `z_m` is z_M.

@@ -45,6 +45,20 @@ std::string SolverOptions::Check() const {
   else if (!std::isfinite(budget_ms)) out << "SolverOptions.budget_ms must be finite (got " << budget_ms << ")";
   else if (!(confidence_score_weight < 0.0)) out << "SolverOptions.confidence_score_weight must be < 0 (got " << confidence_score_weight << ")";
   else if (!std::isfinite(confidence_bias) || !std::isfinite(confidence_ambiguous_weight)) out << "SolverOptions.confidence_bias and confidence_ambiguous_weight must be finite";
+  else if (const std::string bad = confidence.Check("SolverOptions.confidence"); !bad.empty()) out << bad;
+  else if (const std::string bad = wide_mask_confidence.Check("SolverOptions.wide_mask_confidence"); !bad.empty()) out << bad;
+  else if (!(check_surface_fraction > 0.0 && check_surface_fraction < 1.0)) out << "SolverOptions.check_surface_fraction must be in (0, 1) (got " << check_surface_fraction << ")";
+  else if (!(check_step_m > 0.0 && check_step_m < 1.0)) out << "SolverOptions.check_step_m must be in (0, 1) metres (got " << check_step_m << ")";
+  return out.str();
+}
+
+std::string ConfidenceWeights::Check(const std::string& name) const {
+  std::ostringstream out;
+  if (!(score < 0.0)) out << name << ".score must be < 0 (got " << score << ")";
+  else if (!(std::isfinite(bias) && std::isfinite(ambiguous) && std::isfinite(on_surface) && std::isfinite(contour) &&
+             std::isfinite(mask_iou))) {
+    out << name << ": every weight must be finite";
+  }
   return out.str();
 }
 

@@ -23,6 +23,22 @@
 
 namespace g6d {
 
+/// Weights of the confidence of an answer to a mask (PoseResult::confidence), a logistic
+/// P(the pose is within ADD(-S) 0.1 d) = 1 / (1 + exp(-(bias + score · S_A + ambiguous ·
+/// [ambiguous] + on_surface · FrameCheck::on_surface + contour · FrameCheck::contour_support +
+/// mask_iou · PoseResult::mask_iou))), fitted by scripts/calibrate_confidence.py.
+struct ConfidenceWeights {
+  double bias = 0.0;
+  double score = 0.0;  ///< < 0: a higher S_A is less likely right
+  double ambiguous = 0.0;
+  double on_surface = 0.0;
+  double contour = 0.0;
+  double mask_iou = 0.0;
+
+  /// Empty when valid, else names the bad field (prefixed with `name`).
+  std::string Check(const std::string& name) const;
+};
+
 /// One instance to estimate: its object and its visible mask in the frame.
 struct Instance {
   std::string object_id;  ///< must equal the bank's object id
@@ -86,6 +102,10 @@ struct SolverOptions {
   /// of its mask; the lower S_A wins. Callers that solve one instance at a time ignore it.
   bool explain_neighbours = true;
   double neighbour_min_fraction = 0.05;
+  /// In that pass, two answers of one object at one place (DuplicateAnswers, neighbours.h)
+  /// are one instance's: the one of higher S_A is solved again without the other's pixels,
+  /// and any answer elsewhere replaces it.
+  bool resolve_duplicates = true;
   /// The mask refined with the pose (kDepth): after the solve, ICP + MHPO from T_A on the
   /// mask T_A implies (CorrectedMask), accepted when S with the caller's mask as evidence
   /// is lower; repeated while it improves, at most this many times (0 = off).
@@ -199,15 +219,29 @@ struct SolverOptions {
   double appearance_margin = 0.05;
   double appearance_min_gain = 0.1;
   AppearanceOptions appearance;  ///< visibility and measure of the agreement
-  /// Confidence = 1 / (1 + exp(-(confidence_bias + confidence_score_weight * S_A +
-  /// confidence_ambiguous_weight * ambiguous))): the probability that the pose is within
-  /// ADD(-S) 0.1 d, a logistic fit over 3498 answers (K = 18) of the four dev sets (synth_dev,
-  /// LM-O, real YCB-V clutter and foam brick), each with GT masks and with cut, merged and box
-  /// masks (scripts/calibrate_confidence.py on g6d-bench-dataset --records; bench/RESULTS.md,
-  /// "A confidence that knows"). Left out one object at a time, the answers wrong with
-  /// confidence >= 0.9 on synth_dev with GT masks fall from 16 to 6 of 404 against the
-  /// previous fit (10.14, -41.7, -1.01: 589 answers of LM-O, YCB-V and the sample, almost none
-  /// wrong). It decides nothing: which answers are searched again is unsure_score's.
+  /// The confidence of an answer to a mask (PoseResult::confidence): a logistic in S_A, the
+  /// ambiguity flag, the answer checked against the whole frame (FrameCheck: the share of the
+  /// rendered model the depth confirms, the share of its outline at a depth step) and how
+  /// much of the caller's mask it explains (PoseResult::mask_iou). `confidence` is for a mask
+  /// that fits the object; `wide_mask_confidence` for a mask wider than the object or a box,
+  /// where a pose that lies well on one object of the mask may be on the wrong one: the
+  /// frame check is left out of it. Fitted on 1707 answers of the sets with sensor depth
+  /// (synth_dev's simulated structured light, the real YCB-V Xtion frames) with GT, cut,
+  /// merged and box masks (scripts/calibrate_confidence.py on g6d-bench-dataset --records;
+  /// bench/RESULTS.md, "A confidence that reads the frame"). LM-O, whose depth is rendered
+  /// from the ground truth and makes every frame check clean, is measured held out: none of
+  /// its 900 answers is wrong at >= 0.9.
+  ConfidenceWeights confidence = {-9.645, -2.193, -1.926, 6.324, 4.076, 6.052};
+  ConfidenceWeights wide_mask_confidence = {0.429, -3.530, -1.536, 0.0, 0.0, 4.105};
+  /// The frame check's tolerances (CheckAgainstFrame): a rendered pixel is on the surface
+  /// within this fraction of the diameter; its outline steps by more than check_step_m.
+  double check_surface_fraction = 0.05;
+  double check_step_m = 0.005;
+  /// The confidence from S_A alone, 1 / (1 + exp(-(confidence_bias + confidence_score_weight
+  /// * S_A + confidence_ambiguous_weight * ambiguous))): for answers not checked against
+  /// the frame (tracking, track_pose.h). A logistic fit over 3498 answers (K = 18) of the
+  /// four dev sets with GT, cut, merged and box masks (bench/RESULTS.md, "A confidence that
+  /// knows").
   double confidence_bias = 3.767;
   double confidence_score_weight = -10.041;
   double confidence_ambiguous_weight = -2.299;

@@ -33,6 +33,7 @@ STRUCTS = {
     "PpfSearchOptions": "lib/solver/ppf.h",
     "SilhouetteOptions": "lib/solver/silhouette_poses.h",
     "PpfModelOptions": "lib/templates/ppf_model.h",
+    "ConfidenceWeights": "lib/solver/solver_options.h",
 }
 # Fields a Python caller cannot use, and why.
 NOT_BOUND = {

@@ -156,6 +156,7 @@ py::dict StagesDict(const StageReport& s) {
   d["mask_answer_score"] = s.mask_answer_score;
   d["neighbour_pixels"] = s.neighbour_pixels;
   d["neighbour_answer_chosen"] = s.neighbour_answer_chosen;
+  d["duplicate_answer"] = s.duplicate_answer;
   d["best_quality"] = s.best_quality;
   d["best_e_obs"] = s.best_e_obs;
   d["best_s_after_icp"] = s.best_s_after_icp;
@@ -170,6 +171,7 @@ py::dict StagesDict(const StageReport& s) {
   py::dict times;
   for (const StageTime& stage : StageTimes(s)) times[stage.name] = stage.ms;
   times["mask_refine"] = s.mask_refine_ms;
+  times["frame_check"] = s.frame_check_ms;
   times["depth_regions"] = s.depth_regions_ms;
   times["neighbours"] = s.neighbours_ms;
   d["time_ms"] = times;
@@ -208,6 +210,9 @@ py::dict ResultDict(PoseResult result, const BankPtr& bank) {
                                             : py::none();
   d["corrected_mask"] = MatToArray(std::move(result.corrected_mask));
   d["mask_iou"] = result.mask_iou;
+  d["on_surface"] = result.frame_check.on_surface;
+  d["free_space"] = result.frame_check.free_space;
+  d["contour_support"] = result.frame_check.contour_support;
   d["mask_refined_rounds"] = result.mask_refined_rounds;
   d["stages"] = StagesDict(result.stages);
   return d;
@@ -267,7 +272,7 @@ void BindOptions(py::module_& module) {
   {
     using T = GridOptions;
     OptionsClass<T>(module, "GridOptions", "Evaluation grid around the mask (solver/observation.h).")
-        G6D_FIELD(margin) G6D_FIELD(max_side_px).Done();
+        G6D_FIELD(margin) G6D_FIELD(max_side_px) G6D_FIELD(unseen_area_min_px).Done();
   }
   {
     using T = IcpOptions;
@@ -314,6 +319,13 @@ void BindOptions(py::module_& module) {
         G6D_FIELD(surface_samples) G6D_FIELD(max_points) G6D_FIELD(seed).Done();
   }
   {
+    using T = ConfidenceWeights;
+    OptionsClass<T>(module, "ConfidenceWeights",
+                    "Weights of the logistic confidence of an answer to a mask (solver/solver_options.h).")
+        G6D_FIELD(bias) G6D_FIELD(score) G6D_FIELD(ambiguous) G6D_FIELD(on_surface) G6D_FIELD(contour)
+        G6D_FIELD(mask_iou).Done();
+  }
+  {
     using T = SolverOptions;
     // stop_requested (a pointer to the caller's atomic flag) is not bound: a Python caller
     // bounds a solve with budget_ms.
@@ -322,7 +334,7 @@ void BindOptions(py::module_& module) {
                     "documented there). The defaults are the service's and g6d-solve's; K = num_hypotheses.")
         G6D_FIELD(query_orb) G6D_FIELD(mask_trust) G6D_FIELD(region) G6D_FIELD(segments)
         G6D_FIELD(split_merged_at_creases) G6D_FIELD(max_search_regions) G6D_FIELD(region_candidates)
-        G6D_FIELD(unsure_score) G6D_FIELD(unsure_ambiguous_score) G6D_FIELD(explain_neighbours) G6D_FIELD(neighbour_min_fraction)
+        G6D_FIELD(unsure_score) G6D_FIELD(unsure_ambiguous_score) G6D_FIELD(explain_neighbours) G6D_FIELD(neighbour_min_fraction) G6D_FIELD(resolve_duplicates)
         G6D_FIELD(mask_refine_rounds) G6D_FIELD(match) G6D_FIELD(pnp) G6D_FIELD(use_ppf) G6D_FIELD(ppf)
         G6D_FIELD(ppf_hypotheses) G6D_FIELD(use_silhouettes) G6D_FIELD(silhouette) G6D_FIELD(silhouette_hypotheses)
         G6D_FIELD(num_hypotheses) G6D_FIELD(score)
@@ -335,6 +347,7 @@ void BindOptions(py::module_& module) {
         G6D_FIELD(pnp_min_quality_ratio) G6D_FIELD(cull_backfaces) G6D_FIELD(coarse_selection_mesh)
         G6D_FIELD(ambiguity_distance_fraction) G6D_FIELD(ambiguity_margin) G6D_FIELD(appearance_tiebreak)
         G6D_FIELD(appearance_margin) G6D_FIELD(appearance_min_gain) G6D_FIELD(appearance)
+        G6D_FIELD(confidence) G6D_FIELD(wide_mask_confidence) G6D_FIELD(check_surface_fraction) G6D_FIELD(check_step_m)
         G6D_FIELD(confidence_bias) G6D_FIELD(confidence_score_weight) G6D_FIELD(confidence_ambiguous_weight).Done();
   }
   {

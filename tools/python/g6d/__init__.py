@@ -31,7 +31,7 @@ import enum as _enum
 import os as _os
 
 from . import _core
-from ._core import (AppearanceOptions, CropOptions, DetectOptions, Error, GridOptions, IcpOptions,
+from ._core import (AppearanceOptions, ConfidenceWeights, CropOptions, DetectOptions, Error, GridOptions, IcpOptions,
                     IdentifyOptions, MaskTrust, MatchOptions, MhpoOptions, OrbOptions, PnpMinimalSolver,
                     PnpOptions, PpfModelOptions, PpfSearchOptions, RegionOptions, ScoreOptions, SegmentOptions, SilhouetteOptions,
                     SolverOptions, SymmetryOptions, TemplateBank, TemplateBuildOptions, TrackSolveOptions,
@@ -53,7 +53,7 @@ __all__ = [
     "MaskTrust", "PnpMinimalSolver",
 ]
 
-_OPTION_CLASSES = (AppearanceOptions, CropOptions, DetectOptions, GridOptions, IcpOptions,
+_OPTION_CLASSES = (AppearanceOptions, ConfidenceWeights, CropOptions, DetectOptions, GridOptions, IcpOptions,
                    IdentifyOptions, MatchOptions, MhpoOptions, OrbOptions, PnpOptions, PpfModelOptions,
                    PpfSearchOptions, RegionOptions,
                    ScoreOptions, SegmentOptions, SilhouetteOptions, SolverOptions, SymmetryOptions, TemplateBuildOptions,

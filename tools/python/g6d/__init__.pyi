@@ -111,6 +111,7 @@ class ScoreOptions(_Options):
 class GridOptions(_Options):
     margin: float
     max_side_px: int
+    unseen_area_min_px: int
 
 class IcpOptions(_Options):
     trim_fraction: float
@@ -179,6 +180,14 @@ class PpfModelOptions(_Options):
     max_points: int
     seed: int
 
+class ConfidenceWeights(_Options):
+    bias: float
+    score: float
+    ambiguous: float
+    on_surface: float
+    contour: float
+    mask_iou: float
+
 class SolverOptions(_Options):
     """All options of estimate_pose; defaults are the service's (lib/solver/pipeline.h)."""
     query_orb: OrbOptions
@@ -192,6 +201,7 @@ class SolverOptions(_Options):
     unsure_ambiguous_score: float
     explain_neighbours: bool
     neighbour_min_fraction: float
+    resolve_duplicates: bool
     mask_refine_rounds: int
     match: MatchOptions
     pnp: PnpOptions
@@ -232,6 +242,10 @@ class SolverOptions(_Options):
     appearance_margin: float
     appearance_min_gain: float
     appearance: AppearanceOptions
+    confidence: ConfidenceWeights
+    wide_mask_confidence: ConfidenceWeights
+    check_surface_fraction: float
+    check_step_m: float
     confidence_bias: float
     confidence_score_weight: float
     confidence_ambiguous_weight: float
@@ -405,6 +419,9 @@ class PoseResult:
     runner_up_appearance_agreement: Optional[float]
     corrected_mask: Optional[npt.NDArray[np.uint8]]
     mask_iou: float
+    on_surface: float
+    free_space: float
+    contour_support: float
     mask_refined_rounds: int
     stages: Dict[str, Any]
     bank: Optional[TemplateBank]

@@ -1,0 +1,35 @@
+#pragma once
+/// @file frame_check.h
+/// An answer checked against the whole frame (not only its mask or region), at its pose:
+/// how much of the rendered model the observed depth confirms, how much of it the camera
+/// sees through, and where its outline meets a depth step. Detection's confidence reads it
+/// (detect.h), and so does the confidence of an answer to a mask (SolverOptions::confidence).
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+namespace g6d {
+
+struct Frame;
+struct TemplateBank;
+
+/// An answer against the whole frame at its pose.
+struct FrameCheck {
+  int rendered_pixels = 0;       ///< rendered pixels (in the image) with observed depth
+  double on_surface = 0.0;       ///< fraction of them whose depth lies on the rendered surface
+  double free_space = 0.0;       ///< ... whose depth lies behind it: the camera sees through the object
+  double contour_support = 0.0;  ///< fraction of the outline where the depth steps
+};
+
+/// Renders `bank`'s online mesh at `cam_from_object` into the frame and reads the depth:
+/// surface tolerance `surface_m`, outline step `step_m`.
+FrameCheck CheckAgainstFrame(const Frame& frame, const TemplateBank& bank, const Eigen::Isometry3d& cam_from_object,
+                             double surface_m, double step_m);
+
+/// The fraction of a rendering's outline (`rendered`, CV_32F metres, 0 = empty) where the
+/// `observed` depth steps: for each rendered pixel with an unrendered 4-neighbour `gap` pixels
+/// away, the observed depth there is farther or nearer than the rendered depth by more than
+/// `step_m` (where it has depth; without depth it says nothing either way).
+double ContourSupport(const cv::Mat& rendered, const cv::Mat& observed, int gap, float step_m);
+
+}  // namespace g6d
