@@ -164,6 +164,9 @@ int main(int argc, char** argv) {
   app.add_flag("--unseen-hidden", unseen_hidden,
                "a rendered pixel outside the mask without observed depth counts for nothing (ScoreOptions::unseen_is_hidden)");
   int unseen_area_px = -1;
+  bool fill_thin_holes = false;
+  app.add_flag("--fill-thin-holes", fill_thin_holes,
+               "a rendered pixel outside the mask in a thin depth hole whose surroundings lie on its surface counts as object (GridOptions::fill_thin_holes)");
   app.add_option("--unseen-area-px", unseen_area_px,
                  "--unseen-hidden: a depthless pixel is hidden only in a depthless area this wide, image pixels (GridOptions::unseen_area_min_px; 0 = every one; default: solver's)");
   app.add_flag("--no-dedupe", no_dedupe, "keep hypotheses equal modulo symmetry as separate K slots (ablation)");
@@ -375,6 +378,7 @@ int main(int argc, char** argv) {
     if (no_occlusion) options.score.occlusion_margin_m = 0.0;
     if (unseen_hidden) options.score.unseen_is_hidden = true;
     if (unseen_area_px >= 0) options.selection_grid.unseen_area_min_px = options.refine_grid.unseen_area_min_px = unseen_area_px;
+    if (fill_thin_holes) options.selection_grid.fill_thin_holes = options.refine_grid.fill_thin_holes = true;
     options.mask_trust = g6d::ParseMaskTrust(mask_trust);
     options.split_merged_at_creases = crease_split;
     if (no_dedupe) options.distinct_pose_fraction = 0.0;

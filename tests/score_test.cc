@@ -136,6 +136,13 @@ TEST(MakeEvaluationGrid, AThinDepthlessBandIsNoUnseenAreaAWideHoleIs) {
   EXPECT_EQ(at(235, 235), 0);    // inside the mask: never an occluder's
   EXPECT_EQ(at(330, 300), 0);    // background with depth
   EXPECT_EQ(cv::countNonZero(grid.unseen_area), 40 * 40);
+  EXPECT_TRUE(grid.hole_near.empty());  // the thin holes are filled only when asked
+  GridOptions fill = options;
+  fill.fill_thin_holes = true;
+  const EvaluationGrid filled = MakeEvaluationGrid(camera, mask, depth, fill);
+  EXPECT_FLOAT_EQ(filled.hole_near.at<float>(250 - y0, 198 - x0), 0.8f);  // the band: its surroundings' depth
+  EXPECT_FLOAT_EQ(filled.hole_far.at<float>(250 - y0, 198 - x0), 0.8f);
+  EXPECT_EQ(filled.hole_near.at<float>(240 - y0, 320 - x0), 0.0f);  // the wide hole is no thin one
   // The band counts against a pose that spills into it; the hole hides what lies behind it.
   RasterImage rendered;
   rendered.depth = cv::Mat::zeros(grid.mask.size(), CV_32F);

@@ -129,10 +129,15 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
       }
     }
   }
+  // The depthless areas are read only by unseen_is_hidden and the thin holes' fill.
+  auto grid_options = [&options](GridOptions grid) {
+    if (!options.score.unseen_is_hidden && !grid.fill_thin_holes) grid.unseen_area_min_px = 0;
+    return grid;
+  };
   observation->selection_grid =
-      MakeEvaluationGrid(frame.camera, mask, depth, options.selection_grid, support, segmentation, unsure);
+      MakeEvaluationGrid(frame.camera, mask, depth, grid_options(options.selection_grid), support, segmentation, unsure);
   observation->refine_grid =
-      MakeEvaluationGrid(frame.camera, mask, depth, options.refine_grid, support, segmentation, unsure);
+      MakeEvaluationGrid(frame.camera, mask, depth, grid_options(options.refine_grid), support, segmentation, unsure);
   return "";
 }
 

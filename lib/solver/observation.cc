@@ -93,7 +93,6 @@ EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, con
   // Depthless areas outside the mask at least unseen_area_min_px wide, on the ROI.
   cv::Mat unseen_area_roi, hole_near_roi, hole_far_roi;
   if (options.unseen_area_min_px > 0) {
-    const cv::Rect roi(x0, y0, roi_w, roi_h);
     unseen_area_roi.create(roi_h, roi_w, CV_8U);
     for (int v = 0; v < roi_h; ++v) {
       const uint8_t* m = mask.ptr<uint8_t>(y0 + v) + x0;
@@ -106,7 +105,10 @@ EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, con
                      cv::getStructuringElement(cv::MORPH_RECT, cv::Size(side, side)), cv::Point(-1, -1), 1,
                      cv::BORDER_REPLICATE);
     grid.unseen_area.create(grid.camera.height, grid.camera.width, CV_8U);
+  }
+  if (options.unseen_area_min_px > 0 && options.fill_thin_holes) {
     // The valid depth around each pixel: nearest (min over valid) and farthest (max).
+    const int side = options.unseen_area_min_px;
     cv::Mat near(roi_h, roi_w, CV_32F), far(roi_h, roi_w, CV_32F);
     for (int v = 0; v < roi_h; ++v) {
       const float* d = depth.ptr<float>(y0 + v) + x0;
@@ -140,6 +142,9 @@ EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, con
       if (!unseen_area_roi.empty()) {
         const uint8_t area = unseen_area_roi.at<uint8_t>(sv - y0, su - x0);
         grid.unseen_area.at<uint8_t>(v, u) = area;
+      }
+      if (!hole_near_roi.empty()) {
+        const uint8_t area = unseen_area_roi.at<uint8_t>(sv - y0, su - x0);
         const float near = hole_near_roi.at<float>(sv - y0, su - x0);
         if (!m[su] && !area && !(d[su] > 0.0f && std::isfinite(d[su])) && near < std::numeric_limits<float>::max()) {
           grid.hole_near.at<float>(v, u) = near;

@@ -272,7 +272,7 @@ void BindOptions(py::module_& module) {
   {
     using T = GridOptions;
     OptionsClass<T>(module, "GridOptions", "Evaluation grid around the mask (solver/observation.h).")
-        G6D_FIELD(margin) G6D_FIELD(max_side_px) G6D_FIELD(unseen_area_min_px).Done();
+        G6D_FIELD(margin) G6D_FIELD(max_side_px) G6D_FIELD(unseen_area_min_px) G6D_FIELD(fill_thin_holes).Done();
   }
   {
     using T = IcpOptions;

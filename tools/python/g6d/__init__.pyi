@@ -112,6 +112,7 @@ class GridOptions(_Options):
     margin: float
     max_side_px: int
     unseen_area_min_px: int
+    fill_thin_holes: bool
 
 class IcpOptions(_Options):
     trim_fraction: float
