@@ -22,23 +22,31 @@ Eigen::Vector3d MeshCentre(const TemplateBank& bank) {
   return bank.online_mesh.vertices.empty() ? sum : sum / static_cast<double>(bank.online_mesh.vertices.size());
 }
 
+// SamePlace with the mesh's centre already known.
+bool SamePlaceAt(const PoseResult& a, const PoseResult& b, const Eigen::Vector3d& centre, double diameter_m) {
+  if (!a.success || !b.success) return false;
+  return (a.cam_from_object * centre - b.cam_from_object * centre).norm() < kSamePlaceFraction * diameter_m;
+}
+
 }  // namespace
 
 bool SamePlace(const PoseResult& a, const PoseResult& b, const TemplateBank& bank) {
-  if (!a.success || !b.success) return false;
-  const Eigen::Vector3d centre = MeshCentre(bank);
-  return (a.cam_from_object * centre - b.cam_from_object * centre).norm() < kSamePlaceFraction * bank.diameter_m;
+  return SamePlaceAt(a, b, MeshCentre(bank), bank.diameter_m);
 }
 
 std::vector<int> DuplicateAnswers(const std::vector<Instance>& instances, const std::vector<const TemplateBank*>& banks,
                                   const std::vector<PoseResult>& answers, const SolverOptions& options) {
   std::vector<int> twins(answers.size(), -1);
   if (!options.resolve_duplicates) return twins;
+  std::vector<Eigen::Vector3d> centres(answers.size(), Eigen::Vector3d::Zero());  // once per instance
+  for (size_t i = 0; i < answers.size(); ++i) {
+    if (banks[i] != nullptr && answers[i].success) centres[i] = MeshCentre(*banks[i]);
+  }
   for (size_t i = 0; i < answers.size(); ++i) {
     if (banks[i] == nullptr || !answers[i].success) continue;
     for (size_t j = 0; j < answers.size(); ++j) {
       if (j == i || banks[j] == nullptr || instances[j].object_id != instances[i].object_id) continue;
-      if (!SamePlace(answers[i], answers[j], *banks[i])) continue;
+      if (!SamePlaceAt(answers[i], answers[j], centres[i], banks[i]->diameter_m)) continue;
       // The lower S_A keeps the place (the lower index on a tie); the other is the twin's.
       const bool j_keeps = answers[j].score < answers[i].score || (answers[j].score == answers[i].score && j < i);
       if (j_keeps && (twins[i] < 0 || answers[j].score < answers[static_cast<size_t>(twins[i])].score)) {

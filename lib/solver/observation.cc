@@ -139,12 +139,9 @@ EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, con
       const int su = std::min(x1 - 1, x0 + static_cast<int>((u + 0.5) / scale));
       if (gs != nullptr) gs[u] = s[su] ? 255 : 0;
       if (!unsure.empty()) grid.unsure.at<uint8_t>(v, u) = unsure.at<uint8_t>(sv, su) ? 255 : 0;
-      if (!unseen_area_roi.empty()) {
-        const uint8_t area = unseen_area_roi.at<uint8_t>(sv - y0, su - x0);
-        grid.unseen_area.at<uint8_t>(v, u) = area;
-      }
+      const uint8_t area = unseen_area_roi.empty() ? 0 : unseen_area_roi.at<uint8_t>(sv - y0, su - x0);
+      if (!unseen_area_roi.empty()) grid.unseen_area.at<uint8_t>(v, u) = area;
       if (!hole_near_roi.empty()) {
-        const uint8_t area = unseen_area_roi.at<uint8_t>(sv - y0, su - x0);
         const float near = hole_near_roi.at<float>(sv - y0, su - x0);
         if (!m[su] && !area && !(d[su] > 0.0f && std::isfinite(d[su])) && near < std::numeric_limits<float>::max()) {
           grid.hole_near.at<float>(v, u) = near;
