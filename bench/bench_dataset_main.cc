@@ -186,6 +186,12 @@ int main(int argc, char** argv) {
   app.add_option("--mhpo-min-rounds", mhpo_min_rounds, "MHPO rounds before early stopping may end it (default: solver's)");
   double grow_fraction = -1.0;
   int max_search_regions = -1;
+  int unsure_area_px = 0;
+  app.add_option("--unsure-area-px", unsure_area_px,
+                 "a mask's depthless pixels are unsure when they reach a depthless area outside the mask this wide (RegionOptions::unsure_area_min_px; 1 = any; default: solver's)");
+  bool support_nobodys = false;
+  app.add_flag("--no-mask-on-support", support_nobodys,
+               "a pixel of the mask on the support plane is nobody's: no pose is credited with it (RegionOptions::mask_decides_on_support off; ablation)");
   app.add_option("--grow-fraction", grow_fraction, "search region grown by the depth up to this fraction of the mask box (0 = off; default: solver's)");
   int region_candidates = -1;
   double unsure_score = -1.0;
@@ -395,6 +401,8 @@ int main(int argc, char** argv) {
     if (icp_stall >= 0) options.icp.stall_window = icp_stall;
     if (mhpo_min_rounds >= 0) options.mhpo.min_rounds = mhpo_min_rounds;
     if (grow_fraction >= 0.0) options.region.grow_fraction = grow_fraction;
+    if (support_nobodys) options.region.mask_decides_on_support = false;
+    if (unsure_area_px > 0) options.region.unsure_area_min_px = unsure_area_px;
     if (max_search_regions >= 0) options.max_search_regions = max_search_regions;
     if (region_candidates >= 0) options.region_candidates = region_candidates;
     if (no_neighbours) options.explain_neighbours = false;

@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
+#include "solver/mask_stage.h"
 
 namespace g6d {
 namespace {
@@ -95,6 +96,68 @@ TEST(ComputeObservedRegion, KeepsTheMaskWhereTheDepthCannotJudge) {
   EXPECT_EQ(Count(region.mask), Count(mask));
 }
 
+TEST(ComputeObservedRegion, DepthlessPixelsAreUnsureOnlyWhereTheyContinueIntoAWideUnseenArea) {
+  // The object's face has a hole without depth (bare metal reflecting the pattern away)
+  // that reaches its edge; around the face the sensor loses a 2 px band, and beyond it sees
+  // the table.
+  cv::Mat depth = SceneDepth();
+  const cv::Rect face = ObjectBox();
+  const cv::Rect hole(face.x, face.y + 10, 25, 20);  // touches the face's left edge
+  depth(hole).setTo(0.0f);
+  cv::Mat band = cv::Mat::zeros(kHeight, kWidth, CV_8U);
+  const cv::Rect around(face.x - 2, face.y - 2, face.width + 4, face.height + 4);
+  band(around).setTo(255);
+  band(face).setTo(0);
+  depth.setTo(0.0f, band);
+  cv::Mat mask = cv::Mat::zeros(kHeight, kWidth, CV_8U);
+  mask(face).setTo(255);
+  const ObservedRegion region = ComputeObservedRegion(kCamera, mask, depth, 0.12, RegionOptions());
+  // The hole is the object's: its pixels count against a pose that leaves them out.
+  EXPECT_EQ(region.unsure_pixels, 0);
+  EXPECT_EQ(Count(region.mask), face.area());
+  // With every depthless pixel outside the mask read as unseen (the rule before), the
+  // band makes the hole unsure.
+  RegionOptions any;
+  any.unsure_area_min_px = 1;
+  EXPECT_EQ(ComputeObservedRegion(kCamera, mask, depth, 0.12, any).unsure_pixels, hole.area());
+  // A mask that leaked onto a wide area the sensor did not see: that part is unsure.
+  cv::Mat far_depth = SceneDepth();
+  const cv::Rect unseen(face.x - 20, face.y, 20, face.height);  // left of the face, no depth
+  far_depth(unseen).setTo(0.0f);
+  cv::Mat leaky = mask.clone();
+  leaky(cv::Rect(face.x - 8, face.y, 8, face.height)).setTo(255);
+  const ObservedRegion leaked = ComputeObservedRegion(kCamera, leaky, far_depth, 0.12, RegionOptions());
+  EXPECT_EQ(leaked.unsure_pixels, 8 * face.height);
+  ASSERT_FALSE(leaked.unsure.empty());
+  EXPECT_EQ(Count(leaked.unsure(face)), 0);
+}
+
+// A bent sheet-metal part seen from above: an upright flange (the box face, 5 cm up) and a
+// base lying flat on the table, thinner than the plane's tolerance. The base is a leak to
+// the depth; where the mask decides, the scores do not read it as the support.
+TEST(PrepareObservation, TheCallersMaskOnTheSupportIsNotTheScoresSupport) {
+  Frame frame;
+  frame.camera = kCamera;
+  frame.depth = SceneDepth();
+  frame.rgb = cv::Mat(kHeight, kWidth, CV_8UC3, cv::Scalar(90, 90, 90));
+  const cv::Rect base(ObjectBox().x + ObjectBox().width, ObjectBox().y, 30, ObjectBox().height);
+  cv::Mat mask = cv::Mat::zeros(kHeight, kWidth, CV_8U);
+  mask(ObjectBox()).setTo(255);
+  mask(base).setTo(255);
+  auto support_pixels = [&](bool mask_decides) {
+    SolverOptions options;
+    options.region.mask_decides_on_support = mask_decides;
+    Observation observation;
+    EXPECT_EQ(PrepareObservation(frame, Instance{"part", mask}, options, 0.12, &observation), "");
+    EXPECT_EQ(observation.region.support_leak, base.area());  // the base left the mask either way
+    return Count(observation.selection_grid.support);
+  };
+  const int nobodys = support_pixels(false);
+  const int decided = support_pixels(true);
+  EXPECT_GT(nobodys, 0);
+  EXPECT_LT(decided, nobodys);
+}
+
 TEST(ComputeObservedRegion, IsDeterministic) {
   const cv::Mat depth = SceneDepth();
   cv::Mat mask = cv::Mat::zeros(kHeight, kWidth, CV_8U);
@@ -113,6 +176,9 @@ TEST(RegionOptions, CheckNamesTheBadField) {
   options = RegionOptions();
   options.min_plane_fraction = 1.5;
   EXPECT_NE(options.Check().find("min_plane_fraction"), std::string::npos);
+  options = RegionOptions();
+  options.unsure_area_min_px = 0;
+  EXPECT_NE(options.Check().find("unsure_area_min_px"), std::string::npos);
 }
 
 TEST(ParseMaskTrust, NamesAndErrors) {

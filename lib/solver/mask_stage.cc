@@ -71,6 +71,9 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
   observation->observed = std::make_unique<PointCloudIndex>(std::move(observed));
   const cv::Mat& support = observation->region.support;
   const cv::Mat& unsure = observation->region.unsure;
+  // What the scores read as support: less the caller's mask where the mask decides.
+  cv::Mat scored_support = support;
+  if (!support.empty() && options.region.mask_decides_on_support) scored_support = support & ~(instance.mask > 0);
   DepthSegmentation segments;
   const bool by_segment = options.mask_trust == MaskTrust::kDepth && options.score.segment_own_fraction > 0.0;
   if (by_segment) {
@@ -135,9 +138,9 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
     return grid;
   };
   observation->selection_grid =
-      MakeEvaluationGrid(frame.camera, mask, depth, grid_options(options.selection_grid), support, segmentation, unsure);
+      MakeEvaluationGrid(frame.camera, mask, depth, grid_options(options.selection_grid), scored_support, segmentation, unsure);
   observation->refine_grid =
-      MakeEvaluationGrid(frame.camera, mask, depth, grid_options(options.refine_grid), support, segmentation, unsure);
+      MakeEvaluationGrid(frame.camera, mask, depth, grid_options(options.refine_grid), scored_support, segmentation, unsure);
   return "";
 }
 

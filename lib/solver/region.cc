@@ -39,6 +39,7 @@ std::string RegionOptions::Check() const {
   else if (!(min_plane_fraction > 0.0 && min_plane_fraction <= 1.0)) out << "RegionOptions.min_plane_fraction must be in (0, 1] (got " << min_plane_fraction << ")";
   else if (min_plane_points < 3) out << "RegionOptions.min_plane_points must be >= 3 (got " << min_plane_points << ")";
   else if (!(far_fraction > 0.0)) out << "RegionOptions.far_fraction must be > 0 (got " << far_fraction << ")";
+  else if (unsure_area_min_px < 1) out << "RegionOptions.unsure_area_min_px must be >= 1 (got " << unsure_area_min_px << ")";
   else if (!(grow_fraction >= 0.0 && grow_fraction <= 2.0)) out << "RegionOptions.grow_fraction must be in [0, 2] (got " << grow_fraction << ")";
   return out.str();
 }
@@ -84,24 +85,44 @@ Plane DominantPlane(const std::vector<Eigen::Vector3d>& points, double tolerance
 namespace {
 
 // ObservedRegion::unsure: the mask's pixels without depth connected (4-neighbours, through
-// such pixels) to a pixel outside the mask. Needs region->mask and region->depth_valid.
-void MarkUnsurePixelsFrom(const cv::Mat& depth, ObservedRegion* region) {
+// such pixels) to a depthless area outside the mask at least `min_area_px` wide (or to the
+// image's border). Needs region->mask.
+void MarkUnsurePixelsFrom(const cv::Mat& depth, int min_area_px, ObservedRegion* region) {
   const cv::Mat& mask = region->mask;
   cv::Mat unsure = cv::Mat::zeros(mask.size(), CV_8U);
   std::vector<cv::Point> front;
-  auto no_depth_in_mask = [&](int u, int v) {
+  auto no_depth = [&](int u, int v) {
     const float z = depth.at<float>(v, u);
-    return mask.at<uint8_t>(v, u) && !(z > 0.0f && std::isfinite(z));
+    return !(z > 0.0f && std::isfinite(z));
+  };
+  auto no_depth_in_mask = [&](int u, int v) { return mask.at<uint8_t>(v, u) && no_depth(u, v); };
+  // The depthless areas outside the mask, around its box, less the bands thinner than
+  // min_area_px (an opening): where the sensor lost the depth along an edge.
+  const cv::Rect box = cv::boundingRect(mask);
+  const int margin = std::max(1, min_area_px) + 1;
+  const cv::Rect roi = cv::Rect(box.x - margin, box.y - margin, box.width + 2 * margin, box.height + 2 * margin) &
+                       cv::Rect(0, 0, mask.cols, mask.rows);
+  cv::Mat wide_unseen = cv::Mat::zeros(roi.size(), CV_8U);
+  for (int v = 0; v < roi.height; ++v) {
+    uint8_t* w = wide_unseen.ptr<uint8_t>(v);
+    for (int u = 0; u < roi.width; ++u) w[u] = !mask.at<uint8_t>(roi.y + v, roi.x + u) && no_depth(roi.x + u, roi.y + v) ? 255 : 0;
+  }
+  if (min_area_px > 1) {
+    cv::morphologyEx(wide_unseen, wide_unseen, cv::MORPH_OPEN,
+                     cv::getStructuringElement(cv::MORPH_RECT, cv::Size(min_area_px, min_area_px)), cv::Point(-1, -1), 1,
+                     cv::BORDER_REPLICATE);
+  }
+  auto unseen_outside = [&](int u, int v) {
+    if (u < 0 || v < 0 || u >= mask.cols || v >= mask.rows) return true;
+    if (!roi.contains(cv::Point(u, v))) return false;
+    return wide_unseen.at<uint8_t>(v - roi.y, u - roi.x) != 0;
   };
   const int du[4] = {-1, 1, 0, 0}, dv[4] = {0, 0, -1, 1};
   for (int v = 0; v < mask.rows; ++v) {
     for (int u = 0; u < mask.cols; ++u) {
       if (!no_depth_in_mask(u, v)) continue;
       bool at_edge = false;
-      for (int k = 0; k < 4 && !at_edge; ++k) {
-        const int uu = u + du[k], vv = v + dv[k];
-        at_edge = uu < 0 || vv < 0 || uu >= mask.cols || vv >= mask.rows || !mask.at<uint8_t>(vv, uu);
-      }
+      for (int k = 0; k < 4 && !at_edge; ++k) at_edge = unseen_outside(u + du[k], v + dv[k]);
       if (!at_edge) continue;
       unsure.at<uint8_t>(v, u) = 255;
       front.push_back(cv::Point(u, v));
@@ -255,11 +276,11 @@ ObservedRegion ComputeObservedRegion(const Camera& camera, const cv::Mat& mask, 
     region.support_leak = region.far_leak = 0;
     region.has_plane = false;
     region.support.release();
-    MarkUnsurePixelsFrom(depth, &region);
+    MarkUnsurePixelsFrom(depth, options.unsure_area_min_px, &region);
     return region;
   }
   region.mask = kept;
-  MarkUnsurePixelsFrom(depth, &region);
+  MarkUnsurePixelsFrom(depth, options.unsure_area_min_px, &region);
   return region;
 }
 

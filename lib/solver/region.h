@@ -64,6 +64,22 @@ struct RegionOptions {
   /// this fraction of the mask box's longer side away: an eroded, cut or boxed mask still
   /// gives the features near the object's edge. 0 = the mask as corrected.
   double grow_fraction = 0.5;
+  /// A pixel of the caller's mask on the support plane leaves the mask (a leak: neither the
+  /// search nor the observed cloud reads it), but when this is on, a pose whose rendered
+  /// surface lies on its depth (within ObservedRegion::surface_tolerance_m) is credited with
+  /// it as with any pixel the mask missed (ScoreOptions::depth_evidence). A part thinner than
+  /// the plane's tolerance (sheet metal lying flat in a bin) cannot be told from its support
+  /// by the depth; there the mask decides. A leak onto a table stays a leak for every pose
+  /// that does not lay a surface on the table. Off: the support is nobody's (before).
+  bool mask_decides_on_support = true;
+  /// Unsure pixels (ObservedRegion::unsure) reach a depthless area outside the mask at
+  /// least this many pixels wide (1 = any depthless pixel outside it). A mask that leaked
+  /// onto what the sensor did not see (background beyond its range, a shadow) continues
+  /// into that unseen area; bare metal that reflects the pattern away lies inside the
+  /// object's outline, beyond which the sensor sees the floor, with only a thin band of
+  /// lost depth along the edge. 9, as GridOptions::unseen_area_min_px: the same question
+  /// (is a depthless area an edge band or something unseen?) asked of the mask's outside.
+  int unsure_area_min_px = 9;
   /// Seed of the plane fit's sampling (deterministic for a given frame).
   uint64_t seed = 1;
 

@@ -241,7 +241,8 @@ void BindOptions(py::module_& module) {
     OptionsClass<T>(module, "RegionOptions", "The depth's check of the mask, mask_trust DEPTH (solver/region.h).")
         G6D_FIELD(sensor_noise_at_1m) G6D_FIELD(noise_sigmas) G6D_FIELD(pose_tolerance_fraction)
         G6D_FIELD(ring_fraction) G6D_FIELD(plane_iterations) G6D_FIELD(plane_samples) G6D_FIELD(min_plane_fraction)
-        G6D_FIELD(min_plane_points) G6D_FIELD(far_fraction) G6D_FIELD(grow_fraction) G6D_FIELD(seed).Done();
+        G6D_FIELD(min_plane_points) G6D_FIELD(far_fraction) G6D_FIELD(grow_fraction) G6D_FIELD(mask_decides_on_support)
+        G6D_FIELD(unsure_area_min_px) G6D_FIELD(seed).Done();
   }
   {
     using T = SegmentOptions;

@@ -66,6 +66,8 @@ class RegionOptions(_Options):
     min_plane_points: int
     far_fraction: float
     grow_fraction: float
+    mask_decides_on_support: bool
+    unsure_area_min_px: int
     seed: int
 
 class SegmentOptions(_Options):
