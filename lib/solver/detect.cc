@@ -296,6 +296,9 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
   SolverOptions solve_options = solver_options;
   solve_options.mask_trust = MaskTrust::kDepth;
   solve_options.region_candidates = 0;  // a region of the depth is solved as it is
+  // A region the depth drew (its edge where the segments or the support end) is no one's
+  // outline of the object: its depthless pixels at the edge are unsure (RegionOptions).
+  solve_options.region.unsure_area_min_px = 1;
   if (options.max_solve_hypotheses > 0) {
     solve_options.num_hypotheses = std::min(solve_options.num_hypotheses, options.max_solve_hypotheses);
   }

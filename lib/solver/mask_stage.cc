@@ -39,7 +39,10 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
   if (options.mask_trust == MaskTrust::kDepth) {
     // The mask as evidence: its leaks removed, and the tolerance of "on the rendered
     // surface" for the pixels it missed (region.h).
-    observation->region = ComputeObservedRegion(frame.camera, observation->mask, depth, diameter_m, options.region);
+    // A box's outline is not the object's: a depthless area inside it may be anything.
+    RegionOptions region_options = options.region;
+    if (observation->is_box) region_options.unsure_area_min_px = 1;
+    observation->region = ComputeObservedRegion(frame.camera, observation->mask, depth, diameter_m, region_options);
     observation->mask = observation->region.mask;
     observation->box = cv::boundingRect(observation->mask);
     if (observation->box.area() == 0) {

@@ -86,7 +86,7 @@ namespace {
 
 // ObservedRegion::unsure: the mask's pixels without depth connected (4-neighbours, through
 // such pixels) to a depthless area outside the mask at least `min_area_px` wide (or to the
-// image's border). Needs region->mask.
+// image's border); with `min_area_px` 1, to any pixel outside the mask. Needs region->mask.
 void MarkUnsurePixelsFrom(const cv::Mat& depth, int min_area_px, ObservedRegion* region) {
   const cv::Mat& mask = region->mask;
   cv::Mat unsure = cv::Mat::zeros(mask.size(), CV_8U);
@@ -114,6 +114,7 @@ void MarkUnsurePixelsFrom(const cv::Mat& depth, int min_area_px, ObservedRegion*
   }
   auto unseen_outside = [&](int u, int v) {
     if (u < 0 || v < 0 || u >= mask.cols || v >= mask.rows) return true;
+    if (min_area_px <= 1) return !mask.at<uint8_t>(v, u);  // any pixel outside the mask
     if (!roi.contains(cv::Point(u, v))) return false;
     return wide_unseen.at<uint8_t>(v - roi.y, u - roi.x) != 0;
   };

@@ -73,12 +73,15 @@ struct RegionOptions {
   /// that does not lay a surface on the table. Off: the support is nobody's (before).
   bool mask_decides_on_support = true;
   /// Unsure pixels (ObservedRegion::unsure) reach a depthless area outside the mask at
-  /// least this many pixels wide (1 = any depthless pixel outside it). A mask that leaked
+  /// least this many pixels wide (1 = any pixel outside it: the mask's edge). A mask that leaked
   /// onto what the sensor did not see (background beyond its range, a shadow) continues
   /// into that unseen area; bare metal that reflects the pattern away lies inside the
   /// object's outline, beyond which the sensor sees the floor, with only a thin band of
   /// lost depth along the edge. 9, as GridOptions::unseen_area_min_px: the same question
   /// (is a depthless area an edge band or something unseen?) asked of the mask's outside.
+  /// Read for a caller's mask that outlines the object: a box (mask_stage.cc) and a region
+  /// detection drew from the depth (detect.cc) say nothing of where the object's surface
+  /// ends, and keep 1 (the rule before: every depthless pixel reaching their edge).
   int unsure_area_min_px = 9;
   /// Seed of the plane fit's sampling (deterministic for a given frame).
   uint64_t seed = 1;
