@@ -20,6 +20,23 @@ std::string GridOptions::Check() const {
   return out.str();
 }
 
+cv::Mat UnseenAreaOutside(const cv::Mat& mask, const cv::Mat& depth, const cv::Rect& roi, int min_px) {
+  G6D_CHECK(mask.type() == CV_8U && depth.type() == CV_32F && mask.size() == depth.size());
+  G6D_CHECK((roi & cv::Rect(0, 0, mask.cols, mask.rows)) == roi && min_px >= 1);
+  cv::Mat area(roi.size(), CV_8U);
+  for (int v = 0; v < roi.height; ++v) {
+    const uint8_t* m = mask.ptr<uint8_t>(roi.y + v) + roi.x;
+    const float* d = depth.ptr<float>(roi.y + v) + roi.x;
+    uint8_t* a = area.ptr<uint8_t>(v);
+    for (int u = 0; u < roi.width; ++u) a[u] = !m[u] && !(d[u] > 0.0f && std::isfinite(d[u])) ? 255 : 0;
+  }
+  if (min_px > 1) {
+    cv::morphologyEx(area, area, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(min_px, min_px)),
+                     cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+  }
+  return area;
+}
+
 double MeanMaskedDepth(const cv::Mat& mask, const cv::Mat& depth, int* valid_pixels) {
   G6D_CHECK(mask.type() == CV_8U && depth.type() == CV_32F && mask.size() == depth.size());
   double sum = 0.0;
@@ -93,17 +110,7 @@ EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, con
   // Depthless areas outside the mask at least unseen_area_min_px wide, on the ROI.
   cv::Mat unseen_area_roi, hole_near_roi, hole_far_roi;
   if (options.unseen_area_min_px > 0) {
-    unseen_area_roi.create(roi_h, roi_w, CV_8U);
-    for (int v = 0; v < roi_h; ++v) {
-      const uint8_t* m = mask.ptr<uint8_t>(y0 + v) + x0;
-      const float* d = depth.ptr<float>(y0 + v) + x0;
-      uint8_t* a = unseen_area_roi.ptr<uint8_t>(v);
-      for (int u = 0; u < roi_w; ++u) a[u] = !m[u] && !(d[u] > 0.0f && std::isfinite(d[u])) ? 255 : 0;
-    }
-    const int side = options.unseen_area_min_px;
-    cv::morphologyEx(unseen_area_roi, unseen_area_roi, cv::MORPH_OPEN,
-                     cv::getStructuringElement(cv::MORPH_RECT, cv::Size(side, side)), cv::Point(-1, -1), 1,
-                     cv::BORDER_REPLICATE);
+    unseen_area_roi = UnseenAreaOutside(mask, depth, cv::Rect(x0, y0, roi_w, roi_h), options.unseen_area_min_px);
     grid.unseen_area.create(grid.camera.height, grid.camera.width, CV_8U);
   }
   if (options.unseen_area_min_px > 0 && options.fill_thin_holes) {

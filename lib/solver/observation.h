@@ -81,6 +81,12 @@ EvaluationGrid MakeEvaluationGrid(const Camera& camera, const cv::Mat& mask, con
                                   const GridOptions& options, const cv::Mat& support = cv::Mat(),
                                   const DepthSegmentation* segments = nullptr, const cv::Mat& unsure = cv::Mat());
 
+/// The depthless pixels outside `mask` (CV_8U, non-zero = mask) within `roi`, less the
+/// areas narrower than `min_px` (an opening with a square of that side; 1 = every one):
+/// where the sensor saw nothing, not where it lost the depth in a thin band along an edge.
+/// CV_8U 0/255 of roi's size. `depth` is CV_32F of the mask's size.
+cv::Mat UnseenAreaOutside(const cv::Mat& mask, const cv::Mat& depth, const cv::Rect& roi, int min_px);
+
 /// z_M of eq. (9): mean observed depth over mask pixels with valid depth, metres;
 /// 0 when there is none. *valid_pixels (optional) receives their count.
 double MeanMaskedDepth(const cv::Mat& mask, const cv::Mat& depth, int* valid_pixels = nullptr);

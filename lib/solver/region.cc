@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "render/raster.h"
+#include "solver/observation.h"
 #include "solver/plane.h"
 
 namespace g6d {
@@ -97,21 +98,12 @@ void MarkUnsurePixelsFrom(const cv::Mat& depth, int min_area_px, ObservedRegion*
   };
   auto no_depth_in_mask = [&](int u, int v) { return mask.at<uint8_t>(v, u) && no_depth(u, v); };
   // The depthless areas outside the mask, around its box, less the bands thinner than
-  // min_area_px (an opening): where the sensor lost the depth along an edge.
+  // min_area_px: where the sensor lost the depth along an edge (only read when min_area_px > 1).
   const cv::Rect box = cv::boundingRect(mask);
-  const int margin = std::max(1, min_area_px) + 1;
+  const int margin = min_area_px + 1;
   const cv::Rect roi = cv::Rect(box.x - margin, box.y - margin, box.width + 2 * margin, box.height + 2 * margin) &
                        cv::Rect(0, 0, mask.cols, mask.rows);
-  cv::Mat wide_unseen = cv::Mat::zeros(roi.size(), CV_8U);
-  for (int v = 0; v < roi.height; ++v) {
-    uint8_t* w = wide_unseen.ptr<uint8_t>(v);
-    for (int u = 0; u < roi.width; ++u) w[u] = !mask.at<uint8_t>(roi.y + v, roi.x + u) && no_depth(roi.x + u, roi.y + v) ? 255 : 0;
-  }
-  if (min_area_px > 1) {
-    cv::morphologyEx(wide_unseen, wide_unseen, cv::MORPH_OPEN,
-                     cv::getStructuringElement(cv::MORPH_RECT, cv::Size(min_area_px, min_area_px)), cv::Point(-1, -1), 1,
-                     cv::BORDER_REPLICATE);
-  }
+  const cv::Mat wide_unseen = min_area_px > 1 ? UnseenAreaOutside(mask, depth, roi, min_area_px) : cv::Mat();
   auto unseen_outside = [&](int u, int v) {
     if (u < 0 || v < 0 || u >= mask.cols || v >= mask.rows) return true;
     if (min_area_px <= 1) return !mask.at<uint8_t>(v, u);  // any pixel outside the mask
