@@ -210,6 +210,9 @@ int main(int argc, char** argv) {
   app.add_option("--icp-stall", icp_stall, "ICP stops when the trimmed RMSE reached no new minimum for N iterations (0 = off; default: solver's)");
   app.add_option("--icp-coarse-points", icp_coarse, "ICP coarse-to-fine: converge on this many source points first (0 = off; default: solver's)");
   app.add_option("--icp-finish", icp_finish, "hypotheses ICP finishes after the probe (default: solver's)");
+  double icp_merge = -1.0;
+  app.add_option("--icp-merge", icp_merge,
+                 "hypotheses ICP brings within this fraction of the diameter of a better-ranked one are merged (0 = off; default: solver's)");
   app.add_option("--pnp-min-quality", pnp_min_quality, "PnP only on sets with Q_j >= this fraction of Q_1 (default: solver's)");
   app.add_flag("--score-gt", score_gt,
                "also score the GT pose (S, 1 - J, depth term) beside S_A per instance: a miss with S(GT) < S_A is a "
@@ -397,6 +400,7 @@ int main(int argc, char** argv) {
     if (icp_source_in_mask) options.icp_source_in_mask = true;
     if (icp_probe >= 0) options.icp_probe_iterations = icp_probe;
     if (icp_finish > 0) options.icp_finish_hypotheses = icp_finish;
+    if (icp_merge >= 0.0) options.icp_merge_fraction = icp_merge;
     if (icp_coarse >= 0) options.icp_coarse_points = icp_coarse;
     if (icp_stall >= 0) options.icp.stall_window = icp_stall;
     if (mhpo_min_rounds >= 0) options.mhpo.min_rounds = mhpo_min_rounds;
@@ -743,6 +747,7 @@ int main(int argc, char** argv) {
         counts["outline poses new to PnP and PPF"].push_back(s.silhouette_distinct);
         counts["answers from an outline pose"].push_back(s.answer_from_silhouette ? 1 : 0);
         counts["kept (K)"].push_back(s.kept_hypotheses);
+        counts["merged by ICP"].push_back(s.icp_merged);
         counts["ICP iterations"].push_back(s.icp_iterations);
         counts["ICP runs at the iteration limit"].push_back(s.icp_runs_at_max);
         ++done;
@@ -875,7 +880,7 @@ int main(int argc, char** argv) {
       std::printf("| %s | %.1f | %.1f |\n", stage.name, Percentile(times[stage.name], 0.5), Percentile(times[stage.name], 0.95));
     }
     std::printf("\nwork per instance\n| count | p50 | p95 |\n|---|---|---|\n");
-    for (const char* count : {"sets tried", "PnP poses", "distinct PnP poses", "kept (K)", "ICP iterations", "ICP runs at the iteration limit"}) {
+    for (const char* count : {"sets tried", "PnP poses", "distinct PnP poses", "kept (K)", "merged by ICP", "ICP iterations", "ICP runs at the iteration limit"}) {
       std::printf("| %s | %.0f | %.0f |\n", count, Percentile(counts[count], 0.5), Percentile(counts[count], 0.95));
     }
     // Where the answers came from (every instance counted, failures as from none).

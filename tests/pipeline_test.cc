@@ -407,12 +407,14 @@ TEST_F(PipelineTest, EachSpeedChangeKeepsTheAnswerAndTheScheduleSavesIcpIteratio
   add("no culling", [](SolverOptions* o) { o->cull_backfaces = false; });
   add("online mesh for selection", [](SolverOptions* o) { o->coarse_selection_mesh = false; });
   add("ICP probing", [](SolverOptions* o) { o->icp_probe_iterations = 6; });
+  add("no ICP merge", [](SolverOptions* o) { o->icp_merge_fraction = 0.0; });
   add("paper's ICP", [](SolverOptions* o) {
     o->icp_coarse_points = 0;
     o->icp.point_to_plane = false;
     o->icp.stall_window = 0;
   });
   long default_iterations = 0, paper_iterations = 0;
+  int merged = 0;
   for (int trial = 0; trial < 3; ++trial) {
     const Eigen::Isometry3d truth = test::RandomPose(kCamera, 0.5, 0.8, &rng);
     test::SyntheticOptions view_options;
@@ -429,13 +431,23 @@ TEST_F(PipelineTest, EachSpeedChangeKeepsTheAnswerAndTheScheduleSavesIcpIteratio
       if (!options.merge_pnp_poses) {
         EXPECT_EQ(s.pnp_merged, 0) << name;
       }
+      // Hypotheses ICP merged are refined no further: MHPO refines the rest, once each.
+      if (options.icp_merge_fraction == 0.0) {
+        EXPECT_EQ(s.icp_merged, 0) << name;
+      }
+      if (options.run_mhpo && s.mhpo.success) {
+        EXPECT_EQ(s.mhpo.hypotheses.size(), static_cast<size_t>(s.kept_hypotheses - s.icp_merged)) << name;
+      }
+      if (name == "default") merged += s.icp_merged;
       if (name == "default") default_iterations += s.icp_iterations;
       if (name == "paper's ICP") paper_iterations += s.icp_iterations;
     }
   }
   EXPECT_LT(default_iterations, paper_iterations);
+  // Different starts slide into one basin: some of the kept hypotheses end on one pose.
+  EXPECT_GT(merged, 0);
   std::cout << "ICP iterations over 3 solves: default " << default_iterations << ", paper's schedule "
-            << paper_iterations << "\n";
+            << paper_iterations << "; hypotheses merged by ICP: " << merged << "\n";
 }
 
 // The stage times are listed once, in pipeline order, for every report that prints them.

@@ -57,6 +57,7 @@ struct StageReport {
   int icp_iterations = 0;           ///< ICP iterations over all hypotheses and passes
   int icp_runs_at_max = 0;          ///< ICP runs that stopped at their iteration limit
   int icp_finished = 0;             ///< hypotheses that ICP ran to convergence in its second pass
+  int icp_merged = 0;               ///< hypotheses ICP brought onto a better-ranked one's pose (icp_merge_fraction)
   /// Index (into the kept hypotheses) of the one that became T_A; -1 = none (stage 6).
   int answer_hypothesis = -1;
   /// Rank by Q_j (0 = best) of T_A's correspondence set and its Q_j / Q_1; -1 / 0 when unknown.

@@ -33,6 +33,7 @@ std::string SolverOptions::Check() const {
   else if (max_source_points < 10) out << "SolverOptions.max_source_points must be >= 10 (got " << max_source_points << ")";
   else if (min_valid_depth_pixels < 3) out << "SolverOptions.min_valid_depth_pixels must be >= 3 (got " << min_valid_depth_pixels << ")";
   else if (icp_coarse_points < 0) out << "SolverOptions.icp_coarse_points must be >= 0 (got " << icp_coarse_points << ")";
+  else if (!(icp_merge_fraction >= 0.0 && icp_merge_fraction < 1.0)) out << "SolverOptions.icp_merge_fraction must be in [0, 1) (got " << icp_merge_fraction << ")";
   else if (icp_probe_iterations < 0) out << "SolverOptions.icp_probe_iterations must be >= 0 (got " << icp_probe_iterations << ")";
   else if (icp_finish_hypotheses < 1) out << "SolverOptions.icp_finish_hypotheses must be >= 1 (got " << icp_finish_hypotheses << ")";
   else if (!(pnp_min_quality_ratio >= 0.0 && pnp_min_quality_ratio <= 1.0)) out << "SolverOptions.pnp_min_quality_ratio must be in [0, 1] (got " << pnp_min_quality_ratio << ")";

@@ -153,10 +153,13 @@ std::vector<Hypothesis> SelectObservable(const SolveContext& c, const std::vecto
 
 // Stage 4: trimmed ICP on depth for every kept hypothesis. Coarse to fine: each runs to
 // convergence on options.icp_coarse_points source points first (the long slides from a
-// poor start cost a quarter), then on the full source from there. With
-// options.icp_probe_iterations > 0, every hypothesis first gets only that many coarse
-// iterations and is scored (S); only the options.icp_finish_hypotheses best by S go on.
-// Returns each hypothesis' score after ICP; refines the poses in place.
+// poor start cost a quarter), then on the full source from there. Hypotheses that ICP
+// brings onto one pose (within options.icp_merge_fraction) are merged: after the coarse
+// pass into the best-ranked of them, after the fine pass into the one of lowest S. The
+// fine pass and MHPO refine each pose once. With options.icp_probe_iterations > 0, every hypothesis first gets only that
+// many coarse iterations and is scored (S); only the options.icp_finish_hypotheses best by
+// S go on. Returns each remaining hypothesis' score after ICP; refines the poses in place
+// and drops the merged ones from *kept.
 std::vector<PoseScore> RefineHypothesesByIcp(const SolveContext& c, std::vector<Hypothesis>* kept) {
   const SolverOptions& options = c.options;
   const size_t n = kept->size();
@@ -172,27 +175,74 @@ std::vector<PoseScore> RefineHypothesesByIcp(const SolveContext& c, std::vector<
     unfinished[k] = report.success && report.iterations >= max_iterations;
     at_max[k] += unfinished[k];
   };
-  const bool coarse = options.icp_coarse_points > 0 && options.icp_coarse_points < options.max_source_points;
-  // Coarse (unless `probe_only`, to convergence), fine, then S.
-  auto refine = [&](size_t k, bool probe_only) {
-    RasterImage scratch;
-    if (options.run_icp) {
-      if (probe_only) {
-        run_icp(k, coarse ? options.icp_coarse_points : options.max_source_points, options.icp_probe_iterations, &scratch);
+  auto score = [&](size_t k, RasterImage* scratch) {
+    scores[k] = ScorePose(c.observation.refine_grid, c.bank.online_mesh, (*kept)[k].cam_from_object, c.observation.z_m,
+                          c.online_score, scratch);
+  };
+  // The hypotheses still refined, in rank order; merge() keeps one of each group within
+  // the merge distance of each other.
+  std::vector<size_t> alive(n);
+  std::iota(alive.begin(), alive.end(), size_t{0});
+  const double same_m = options.icp_merge_fraction * c.bank.diameter_m;
+  // by_score: each pose's group is represented by its member of lowest S (after the fine
+  // pass, when every one is scored), else by its best-ranked member.
+  auto merge = [&](bool by_score) {
+    if (!(same_m > 0.0) || !options.run_icp) return;
+    std::vector<size_t> order = alive;
+    if (by_score) {
+      std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return scores[a].s < scores[b].s; });
+    }
+    std::vector<char> keep(n, 0);
+    std::vector<size_t> distinct;
+    for (size_t k : order) {
+      bool same = false;
+      for (size_t j = 0; j < distinct.size() && !same; ++j) {
+        same = c.comparer.Within((*kept)[k].cam_from_object, (*kept)[distinct[j]].cam_from_object, same_m);
+      }
+      if (same) {
+        ++c.stages->icp_merged;
       } else {
-        if (coarse) run_icp(k, options.icp_coarse_points, options.icp.max_iterations, &scratch);
-        run_icp(k, options.max_source_points, options.icp.max_iterations, &scratch);
+        distinct.push_back(k);
+        keep[k] = 1;
       }
     }
-    scores[k] = ScorePose(c.observation.refine_grid, c.bank.online_mesh, (*kept)[k].cam_from_object, c.observation.z_m,
-                          c.online_score, &scratch);
+    std::vector<size_t> still;  // in rank order
+    for (size_t k : alive) {
+      if (keep[k]) still.push_back(k);
+    }
+    alive.swap(still);
   };
+  const bool coarse = options.icp_coarse_points > 0 && options.icp_coarse_points < options.max_source_points;
   const bool two_pass = options.run_icp && options.icp_probe_iterations > 0;
-  c.executor->ParallelFor(static_cast<int>(n), [&](int k) {
-    if (k > 0 && c.clock->OutOfTime(kIcpBudgetShare)) return;  // not refined, not scored: S stays at its worst
-    refine(static_cast<size_t>(k), two_pass);
-  });
-  if (two_pass) {
+  if (!two_pass) {
+    // A hypothesis left out for time is neither refined nor scored: S stays at its worst.
+    std::vector<char> skipped(n, 0);
+    if (options.run_icp && coarse) {
+      c.executor->ParallelFor(static_cast<int>(n), [&](int k) {
+        if (k > 0 && c.clock->OutOfTime(kIcpBudgetShare)) {
+          skipped[static_cast<size_t>(k)] = 1;
+          return;
+        }
+        RasterImage scratch;
+        run_icp(static_cast<size_t>(k), options.icp_coarse_points, options.icp.max_iterations, &scratch);
+      });
+      merge(false);
+    }
+    c.executor->ParallelFor(static_cast<int>(alive.size()), [&](int i) {
+      const size_t k = alive[static_cast<size_t>(i)];
+      if (skipped[k] || (i > 0 && c.clock->OutOfTime(kIcpBudgetShare))) return;
+      RasterImage scratch;
+      if (options.run_icp) run_icp(k, options.max_source_points, options.icp.max_iterations, &scratch);
+      score(k, &scratch);
+    });
+  } else {
+    c.executor->ParallelFor(static_cast<int>(n), [&](int k) {
+      if (k > 0 && c.clock->OutOfTime(kIcpBudgetShare)) return;
+      RasterImage scratch;
+      run_icp(static_cast<size_t>(k), coarse ? options.icp_coarse_points : options.max_source_points,
+              options.icp_probe_iterations, &scratch);
+      score(static_cast<size_t>(k), &scratch);
+    });
     std::vector<int> order(n);
     std::iota(order.begin(), order.end(), 0);
     std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
@@ -205,14 +255,29 @@ std::vector<PoseScore> RefineHypothesesByIcp(const SolveContext& c, std::vector<
     }
     c.executor->ParallelFor(static_cast<int>(finish.size()), [&](int i) {
       if (c.clock->OutOfTime(kIcpBudgetShare)) return;
-      refine(finish[static_cast<size_t>(i)], false);
+      const size_t k = finish[static_cast<size_t>(i)];
+      RasterImage scratch;
+      if (coarse) run_icp(k, options.icp_coarse_points, options.icp.max_iterations, &scratch);
+      run_icp(k, options.max_source_points, options.icp.max_iterations, &scratch);
+      score(k, &scratch);
     });
     c.stages->icp_finished = static_cast<int>(finish.size());
   }
+  merge(true);
   for (size_t k = 0; k < n; ++k) {
     c.stages->icp_converged += converged[k];
     c.stages->icp_iterations += iterations[k];
     c.stages->icp_runs_at_max += at_max[k];
+  }
+  if (alive.size() < n) {
+    std::vector<Hypothesis> distinct_kept;
+    std::vector<PoseScore> distinct_scores;
+    for (size_t k : alive) {
+      distinct_kept.push_back((*kept)[k]);
+      distinct_scores.push_back(scores[k]);
+    }
+    kept->swap(distinct_kept);
+    scores.swap(distinct_scores);
   }
   return scores;
 }

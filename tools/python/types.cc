@@ -340,7 +340,7 @@ void BindOptions(py::module_& module) {
         G6D_FIELD(ppf_hypotheses) G6D_FIELD(use_silhouettes) G6D_FIELD(silhouette) G6D_FIELD(silhouette_hypotheses)
         G6D_FIELD(num_hypotheses) G6D_FIELD(score)
         G6D_FIELD(selection_grid) G6D_FIELD(refine_grid) G6D_FIELD(icp) G6D_FIELD(run_icp)
-        G6D_FIELD(max_observed_points) G6D_FIELD(max_source_points) G6D_FIELD(icp_coarse_points)
+        G6D_FIELD(max_observed_points) G6D_FIELD(max_source_points) G6D_FIELD(icp_coarse_points) G6D_FIELD(icp_merge_fraction)
         G6D_FIELD(icp_probe_iterations) G6D_FIELD(icp_finish_hypotheses) G6D_FIELD(icp_source_in_mask)
         G6D_FIELD(mhpo) G6D_FIELD(run_mhpo) G6D_FIELD(post_refine) G6D_FIELD(post_refine_trigger_s)
         G6D_FIELD(post_refine_margin) G6D_FIELD(min_valid_depth_pixels) G6D_FIELD(reject_border_masks)

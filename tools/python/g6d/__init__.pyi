@@ -223,6 +223,7 @@ class SolverOptions(_Options):
     max_observed_points: int
     max_source_points: int
     icp_coarse_points: int
+    icp_merge_fraction: float
     icp_probe_iterations: int
     icp_finish_hypotheses: int
     icp_source_in_mask: bool
