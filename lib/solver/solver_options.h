@@ -164,12 +164,11 @@ struct SolverOptions {
   /// 0 = off: every hypothesis runs to convergence (the paper's schedule).
   int icp_probe_iterations = 0;
   int icp_finish_hypotheses = 6;
-  /// Hypotheses that ICP brings within this fraction of the diameter of each other (ADD
-  /// modulo the answer's symmetries) are one pose from there on: merged after the coarse
-  /// pass into the best-ranked one, after the fine pass into the one of lowest S, so that
-  /// the fine pass and MHPO refine each pose once. Different starts often slide into one
-  /// basin: on real YCB-V 60% of the refined hypotheses were within 0.005 d of an earlier
-  /// one, 65% within 0.02 d (bench/RESULTS.md, "Speed with masks"). 0 = off.
+  /// Hypotheses that ICP brings within this fraction of the diameter of each other (ADD,
+  /// no symmetry: twins under a symmetry of the shape are both refined) are one pose from
+  /// there on: merged into the one of lowest S, so that MHPO refines each pose once.
+  /// Different starts often slide into one basin (bench/RESULTS.md, "Speed with masks:
+  /// one MHPO per pose"). 0 = off.
   double icp_merge_fraction = 0.02;
   /// ICP source: only rendered points inside the observed mask (else also those outside
   /// it that no unmasked occluder hides).

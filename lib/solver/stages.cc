@@ -154,9 +154,9 @@ std::vector<Hypothesis> SelectObservable(const SolveContext& c, const std::vecto
 // Stage 4: trimmed ICP on depth for every kept hypothesis. Coarse to fine: each runs to
 // convergence on options.icp_coarse_points source points first (the long slides from a
 // poor start cost a quarter), then on the full source from there. Hypotheses that ICP
-// brings onto one pose (within options.icp_merge_fraction) are merged: after the coarse
-// pass into the best-ranked of them, after the fine pass into the one of lowest S. The
-// fine pass and MHPO refine each pose once. With options.icp_probe_iterations > 0, every hypothesis first gets only that
+// brings onto one pose (within options.icp_merge_fraction) are merged into the one of
+// lowest S: MHPO refines each pose once. (Not after the coarse pass: poses one there can
+// part in the fine pass; merged there, the foam brick's AR fell from 0.649 to 0.530.) With options.icp_probe_iterations > 0, every hypothesis first gets only that
 // many coarse iterations and is scored (S); only the options.icp_finish_hypotheses best by
 // S go on. Returns each remaining hypothesis' score after ICP; refines the poses in place
 // and drops the merged ones from *kept.
@@ -179,25 +179,25 @@ std::vector<PoseScore> RefineHypothesesByIcp(const SolveContext& c, std::vector<
     scores[k] = ScorePose(c.observation.refine_grid, c.bank.online_mesh, (*kept)[k].cam_from_object, c.observation.z_m,
                           c.online_score, scratch);
   };
-  // The hypotheses still refined, in rank order; merge() keeps one of each group within
-  // the merge distance of each other.
+  // The hypotheses kept, in rank order; merge() keeps one of each group within the merge
+  // distance of each other.
   std::vector<size_t> alive(n);
   std::iota(alive.begin(), alive.end(), size_t{0});
   const double same_m = options.icp_merge_fraction * c.bank.diameter_m;
-  // by_score: each pose's group is represented by its member of lowest S (after the fine
-  // pass, when every one is scored), else by its best-ranked member.
-  auto merge = [&](bool by_score) {
+  // Plain distance, no symmetry: a pose and its twin under a symmetry of the shape are
+  // both refined (MHPO, then appearance and the runner-up tell them apart).
+  const PoseComparer same_pose(MeshSymmetries{}, c.comparer.points());
+  // Each group of poses within same_m of each other is represented by its member of lowest S.
+  auto merge = [&] {
     if (!(same_m > 0.0) || !options.run_icp) return;
     std::vector<size_t> order = alive;
-    if (by_score) {
-      std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return scores[a].s < scores[b].s; });
-    }
+    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return scores[a].s < scores[b].s; });
     std::vector<char> keep(n, 0);
     std::vector<size_t> distinct;
     for (size_t k : order) {
       bool same = false;
       for (size_t j = 0; j < distinct.size() && !same; ++j) {
-        same = c.comparer.Within((*kept)[k].cam_from_object, (*kept)[distinct[j]].cam_from_object, same_m);
+        same = same_pose.Within((*kept)[k].cam_from_object, (*kept)[distinct[j]].cam_from_object, same_m);
       }
       if (same) {
         ++c.stages->icp_merged;
@@ -215,25 +215,14 @@ std::vector<PoseScore> RefineHypothesesByIcp(const SolveContext& c, std::vector<
   const bool coarse = options.icp_coarse_points > 0 && options.icp_coarse_points < options.max_source_points;
   const bool two_pass = options.run_icp && options.icp_probe_iterations > 0;
   if (!two_pass) {
-    // A hypothesis left out for time is neither refined nor scored: S stays at its worst.
-    std::vector<char> skipped(n, 0);
-    if (options.run_icp && coarse) {
-      c.executor->ParallelFor(static_cast<int>(n), [&](int k) {
-        if (k > 0 && c.clock->OutOfTime(kIcpBudgetShare)) {
-          skipped[static_cast<size_t>(k)] = 1;
-          return;
-        }
-        RasterImage scratch;
-        run_icp(static_cast<size_t>(k), options.icp_coarse_points, options.icp.max_iterations, &scratch);
-      });
-      merge(false);
-    }
-    c.executor->ParallelFor(static_cast<int>(alive.size()), [&](int i) {
-      const size_t k = alive[static_cast<size_t>(i)];
-      if (skipped[k] || (i > 0 && c.clock->OutOfTime(kIcpBudgetShare))) return;
+    c.executor->ParallelFor(static_cast<int>(n), [&](int k) {
+      if (k > 0 && c.clock->OutOfTime(kIcpBudgetShare)) return;  // not refined, not scored: S stays at its worst
       RasterImage scratch;
-      if (options.run_icp) run_icp(k, options.max_source_points, options.icp.max_iterations, &scratch);
-      score(k, &scratch);
+      if (options.run_icp) {
+        if (coarse) run_icp(static_cast<size_t>(k), options.icp_coarse_points, options.icp.max_iterations, &scratch);
+        run_icp(static_cast<size_t>(k), options.max_source_points, options.icp.max_iterations, &scratch);
+      }
+      score(static_cast<size_t>(k), &scratch);
     });
   } else {
     c.executor->ParallelFor(static_cast<int>(n), [&](int k) {
@@ -263,7 +252,7 @@ std::vector<PoseScore> RefineHypothesesByIcp(const SolveContext& c, std::vector<
     });
     c.stages->icp_finished = static_cast<int>(finish.size());
   }
-  merge(true);
+  merge();
   for (size_t k = 0; k < n; ++k) {
     c.stages->icp_converged += converged[k];
     c.stages->icp_iterations += iterations[k];
