@@ -153,13 +153,14 @@ std::vector<Hypothesis> SelectObservable(const SolveContext& c, const std::vecto
 
 // Stage 4: trimmed ICP on depth for every kept hypothesis. Coarse to fine: each runs to
 // convergence on options.icp_coarse_points source points first (the long slides from a
-// poor start cost a quarter), then on the full source from there. Hypotheses that ICP
-// brings onto one pose (within options.icp_merge_fraction) are merged into the one of
-// lowest S: MHPO refines each pose once. (Not after the coarse pass: poses one there can
-// part in the fine pass; merged there, the foam brick's AR fell from 0.649 to 0.530.) With options.icp_probe_iterations > 0, every hypothesis first gets only that
-// many coarse iterations and is scored (S); only the options.icp_finish_hypotheses best by
-// S go on. Returns each remaining hypothesis' score after ICP; refines the poses in place
-// and drops the merged ones from *kept.
+// poor start cost a quarter), then on the full source from there. With
+// options.icp_probe_iterations > 0, every hypothesis first gets only that many coarse
+// iterations and is scored (S); only the options.icp_finish_hypotheses best by S go on.
+// Hypotheses that ICP brings onto one pose (within options.icp_merge_fraction) are then
+// merged into the one of lowest S: MHPO refines each pose once. (Not after the coarse
+// pass: poses one there can part in the fine pass; merged there, the foam brick's AR fell
+// from 0.649 to 0.530.) Returns each remaining hypothesis' score after ICP; refines the
+// poses in place and drops the merged ones from *kept.
 std::vector<PoseScore> RefineHypothesesByIcp(const SolveContext& c, std::vector<Hypothesis>* kept) {
   const SolverOptions& options = c.options;
   const size_t n = kept->size();
@@ -175,63 +176,27 @@ std::vector<PoseScore> RefineHypothesesByIcp(const SolveContext& c, std::vector<
     unfinished[k] = report.success && report.iterations >= max_iterations;
     at_max[k] += unfinished[k];
   };
-  auto score = [&](size_t k, RasterImage* scratch) {
-    scores[k] = ScorePose(c.observation.refine_grid, c.bank.online_mesh, (*kept)[k].cam_from_object, c.observation.z_m,
-                          c.online_score, scratch);
-  };
-  // The hypotheses kept, in rank order; merge() keeps one of each group within the merge
-  // distance of each other.
-  std::vector<size_t> alive(n);
-  std::iota(alive.begin(), alive.end(), size_t{0});
-  const double same_m = options.icp_merge_fraction * c.bank.diameter_m;
-  // Plain distance, no symmetry: a pose and its twin under a symmetry of the shape are
-  // both refined (MHPO, then appearance and the runner-up tell them apart).
-  const PoseComparer same_pose(MeshSymmetries{}, c.comparer.points());
-  // Each group of poses within same_m of each other is represented by its member of lowest S.
-  auto merge = [&] {
-    if (!(same_m > 0.0) || !options.run_icp) return;
-    std::vector<size_t> order = alive;
-    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return scores[a].s < scores[b].s; });
-    std::vector<char> keep(n, 0);
-    std::vector<size_t> distinct;
-    for (size_t k : order) {
-      bool same = false;
-      for (size_t j = 0; j < distinct.size() && !same; ++j) {
-        same = same_pose.Within((*kept)[k].cam_from_object, (*kept)[distinct[j]].cam_from_object, same_m);
-      }
-      if (same) {
-        ++c.stages->icp_merged;
-      } else {
-        distinct.push_back(k);
-        keep[k] = 1;
-      }
-    }
-    std::vector<size_t> still;  // in rank order
-    for (size_t k : alive) {
-      if (keep[k]) still.push_back(k);
-    }
-    alive.swap(still);
-  };
   const bool coarse = options.icp_coarse_points > 0 && options.icp_coarse_points < options.max_source_points;
-  const bool two_pass = options.run_icp && options.icp_probe_iterations > 0;
-  if (!two_pass) {
-    c.executor->ParallelFor(static_cast<int>(n), [&](int k) {
-      if (k > 0 && c.clock->OutOfTime(kIcpBudgetShare)) return;  // not refined, not scored: S stays at its worst
-      RasterImage scratch;
-      if (options.run_icp) {
-        if (coarse) run_icp(static_cast<size_t>(k), options.icp_coarse_points, options.icp.max_iterations, &scratch);
-        run_icp(static_cast<size_t>(k), options.max_source_points, options.icp.max_iterations, &scratch);
+  // Coarse (unless `probe_only`, to convergence), fine, then S.
+  auto refine = [&](size_t k, bool probe_only) {
+    RasterImage scratch;
+    if (options.run_icp) {
+      if (probe_only) {
+        run_icp(k, coarse ? options.icp_coarse_points : options.max_source_points, options.icp_probe_iterations, &scratch);
+      } else {
+        if (coarse) run_icp(k, options.icp_coarse_points, options.icp.max_iterations, &scratch);
+        run_icp(k, options.max_source_points, options.icp.max_iterations, &scratch);
       }
-      score(static_cast<size_t>(k), &scratch);
-    });
-  } else {
-    c.executor->ParallelFor(static_cast<int>(n), [&](int k) {
-      if (k > 0 && c.clock->OutOfTime(kIcpBudgetShare)) return;
-      RasterImage scratch;
-      run_icp(static_cast<size_t>(k), coarse ? options.icp_coarse_points : options.max_source_points,
-              options.icp_probe_iterations, &scratch);
-      score(static_cast<size_t>(k), &scratch);
-    });
+    }
+    scores[k] = ScorePose(c.observation.refine_grid, c.bank.online_mesh, (*kept)[k].cam_from_object, c.observation.z_m,
+                          c.online_score, &scratch);
+  };
+  const bool two_pass = options.run_icp && options.icp_probe_iterations > 0;
+  c.executor->ParallelFor(static_cast<int>(n), [&](int k) {
+    if (k > 0 && c.clock->OutOfTime(kIcpBudgetShare)) return;  // not refined, not scored: S stays at its worst
+    refine(static_cast<size_t>(k), two_pass);
+  });
+  if (two_pass) {
     std::vector<int> order(n);
     std::iota(order.begin(), order.end(), 0);
     std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
@@ -244,31 +209,47 @@ std::vector<PoseScore> RefineHypothesesByIcp(const SolveContext& c, std::vector<
     }
     c.executor->ParallelFor(static_cast<int>(finish.size()), [&](int i) {
       if (c.clock->OutOfTime(kIcpBudgetShare)) return;
-      const size_t k = finish[static_cast<size_t>(i)];
-      RasterImage scratch;
-      if (coarse) run_icp(k, options.icp_coarse_points, options.icp.max_iterations, &scratch);
-      run_icp(k, options.max_source_points, options.icp.max_iterations, &scratch);
-      score(k, &scratch);
+      refine(finish[static_cast<size_t>(i)], false);
     });
     c.stages->icp_finished = static_cast<int>(finish.size());
   }
-  merge();
   for (size_t k = 0; k < n; ++k) {
     c.stages->icp_converged += converged[k];
     c.stages->icp_iterations += iterations[k];
     c.stages->icp_runs_at_max += at_max[k];
   }
-  if (alive.size() < n) {
-    std::vector<Hypothesis> distinct_kept;
-    std::vector<PoseScore> distinct_scores;
-    for (size_t k : alive) {
-      distinct_kept.push_back((*kept)[k]);
-      distinct_scores.push_back(scores[k]);
+  const double same_m = options.icp_merge_fraction * c.bank.diameter_m;
+  if (!options.run_icp || !(same_m > 0.0)) return scores;
+  // Best S first, each pose kept unless within same_m of one kept before it. Plain
+  // distance, no symmetry: a pose and its twin under a symmetry of the shape are both
+  // refined (MHPO, then appearance and the runner-up tell them apart).
+  const PoseComparer same_pose(MeshSymmetries{}, c.comparer.points());
+  std::vector<size_t> by_score(n);
+  std::iota(by_score.begin(), by_score.end(), size_t{0});
+  std::stable_sort(by_score.begin(), by_score.end(), [&](size_t a, size_t b) { return scores[a].s < scores[b].s; });
+  std::vector<size_t> distinct;
+  std::vector<char> keep(n, 0);
+  for (size_t k : by_score) {
+    bool same = false;
+    for (size_t j = 0; j < distinct.size() && !same; ++j) {
+      same = same_pose.Within((*kept)[k].cam_from_object, (*kept)[distinct[j]].cam_from_object, same_m);
     }
-    kept->swap(distinct_kept);
-    scores.swap(distinct_scores);
+    if (same) continue;
+    distinct.push_back(k);
+    keep[k] = 1;
   }
-  return scores;
+  c.stages->icp_merged += static_cast<int>(n - distinct.size());
+  if (distinct.size() == n) return scores;
+  // The rest in their rank order.
+  std::vector<Hypothesis> kept_distinct;
+  std::vector<PoseScore> scores_distinct;
+  for (size_t k = 0; k < n; ++k) {
+    if (!keep[k]) continue;
+    kept_distinct.push_back((*kept)[k]);
+    scores_distinct.push_back(scores[k]);
+  }
+  kept->swap(kept_distinct);
+  return scores_distinct;
 }
 
 // Stages 1 and 2 on one search region: ORB on its normalized crop, template matching
