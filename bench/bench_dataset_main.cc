@@ -285,6 +285,13 @@ int main(int argc, char** argv) {
                  "--masks none: pieces of split islands are candidates for objects without colour only");
   app.add_option("--detect-island-window", detect_options.island_split_window,
                  "--masks none: the neighbourhood of --detect-island-split, as a fraction of the largest object's size in pixels");
+  app.add_option("--detect-raised-outline", detect_options.raised_outline_edge,
+                 "--masks none: areas of a support that the colour image's edges enclose (Canny thresholds this and "
+                 "twice this) are raised when their mean height stands above the support around them (0 = off)")
+      ->capture_default_str();
+  app.add_option("--detect-raised-outline-noise", detect_options.raised_outline_min_noise,
+                 "--masks none: an outlined area is raised only above this many sigmas of the sensor's noise at its depth")
+      ->capture_default_str();
   app.add_option("--detect-raised-window", detect_options.raised_window_px,
                  "--masks none: the raised test averages the height above a support over squares of this side (odd)");
   app.add_option("--detect-max-planes", detect_options.max_planes,

@@ -219,7 +219,7 @@ TEST(ParseServiceOptionsYaml, ReadsTheDetectionKeysAndCheckNamesABadOne) {
   ParseServiceOptionsYaml(
       "detect: {extra_candidates: 2, colour_weight: 0.25, max_score: 0.3, explain_away_passes: 0, "
       "max_planes: 2, support_extent_factor: 2.0, min_confidence: 0.5, rank_uncoloured_by_shape: false, "
-      "raised_sigmas: 4.0, island_open_px: -1}\n",
+      "raised_sigmas: 4.0, raised_outline_edge: 0, island_open_px: -1}\n",
       "detect.yaml", &options);
   EXPECT_EQ(options.detect.extra_candidates, 2);
   EXPECT_EQ(options.detect.colour_weight, 0.25);
@@ -228,6 +228,7 @@ TEST(ParseServiceOptionsYaml, ReadsTheDetectionKeysAndCheckNamesABadOne) {
   EXPECT_EQ(options.detect.max_planes, 2);
   EXPECT_EQ(options.detect.support_extent_factor, 2.0);
   EXPECT_EQ(options.detect.raised_sigmas, 4.0);
+  EXPECT_EQ(options.detect.raised_outline_edge, 0.0);
   EXPECT_EQ(options.detect.island_open_px, -1);
   EXPECT_EQ(options.detect.min_confidence, 0.5);
   EXPECT_FALSE(options.detect.rank_uncoloured_by_shape);

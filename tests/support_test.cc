@@ -159,6 +159,54 @@ TEST(FormIslands, AnObjectLyingApartIsOneRegionWithItsPixelsWithoutDepth) {
   EXPECT_TRUE(FormIslands(scene.frame, support == 0, 0.12, off).empty());
 }
 
+// An L-shaped bracket of sheet metal, arms 10 px wide, 1.5 mm thick, lying flat at (200, 150)
+// (depth on 70% of its pixels, σ 1 mm: a structured-light sensor at 0.8 m); and the same L
+// painted on the floor at (400, 250), no higher than the floor. Both bright on the grey floor.
+FloorScene MakeBracketAndPaint(cv::Mat* paint) {
+  FloorScene scene = EmptyScene();
+  *paint = cv::Mat::zeros(480, 640, CV_8U);
+  auto draw_l = [](cv::Mat* mask, cv::Point at) {
+    (*mask)(cv::Rect(at.x, at.y, 10, 60)).setTo(255);
+    (*mask)(cv::Rect(at.x, at.y + 50, 50, 10)).setTo(255);
+  };
+  draw_l(&scene.plate, cv::Point(200, 150));
+  draw_l(paint, cv::Point(400, 250));
+  scene.frame.rgb.setTo(cv::Scalar(200, 200, 205), scene.plate | *paint);
+  std::mt19937 random(5);
+  std::normal_distribution<double> noise(0.0, 0.001);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  for (int v = 0; v < 480; ++v) {
+    for (int u = 0; u < 640; ++u) {
+      const bool on_bracket = scene.plate.at<uint8_t>(v, u) != 0;
+      if (on_bracket && uniform(random) >= 0.7) continue;
+      scene.frame.depth.at<float>(v, u) = static_cast<float>(DepthAt(u, v, on_bracket ? 0.0015 : 0.0) + noise(random));
+    }
+  }
+  return scene;
+}
+
+TEST(FindSupport, AThinBracketTheColourImageOutlinesIsRaisedAndPaintIsNot) {
+  cv::Mat paint;
+  const FloorScene scene = MakeBracketAndPaint(&paint);
+  const cv::Mat floor = ~(scene.plate | paint);
+  DetectOptions options;
+  cv::Mat support, raised;
+  EXPECT_EQ(FindSupport(scene.frame, options, 0.1, &support, &raised), 1);
+  EXPECT_GT(FractionWithDepthIn(scene, scene.plate, raised), 0.8);
+  EXPECT_LT(FractionWithDepthIn(scene, paint, raised), 0.05);
+  EXPECT_LT(FractionWithDepthIn(scene, floor, raised), 0.01);
+  // The cause: averaged over 13 x 13 squares that reach the floor on both sides of a 10 px
+  // arm, 1.5 mm of height stays below the depth-only test.
+  options.raised_outline_edge = 0.0;
+  FindSupport(scene.frame, options, 0.1, &support, &raised);
+  EXPECT_LT(FractionWithDepthIn(scene, scene.plate, raised), 0.3);
+  // A bracket lying in the colour image's shadow (no edges) is not outlined: still depth-only.
+  FloorScene unseen = scene;
+  unseen.frame.rgb = cv::Mat(480, 640, CV_8UC3, cv::Scalar(90, 90, 90));
+  FindSupport(unseen.frame, DetectOptions(), 0.1, &support, &raised);
+  EXPECT_LT(FractionWithDepthIn(unseen, unseen.plate, raised), 0.3);
+}
+
 TEST(SplitAtNecks, TwoBlobsJoinedByANeckSplitAndAnLOfOneWidthDoesNot) {
   cv::Mat two = cv::Mat::zeros(120, 200, CV_8U);
   cv::circle(two, cv::Point(50, 60), 35, cv::Scalar(255), cv::FILLED);
@@ -220,6 +268,12 @@ TEST(DetectOptions, TheSupportAndIslandFieldsAreChecked) {
   options = DetectOptions();
   options.raised_sigmas = -1.0;
   EXPECT_NE(options.Check().find("raised_sigmas"), std::string::npos);
+  options = DetectOptions();
+  options.raised_outline_edge = -1.0;
+  EXPECT_NE(options.Check().find("raised_outline_edge"), std::string::npos);
+  options = DetectOptions();
+  options.raised_outline_ring_px = 0;
+  EXPECT_NE(options.Check().find("raised_outline_ring_px"), std::string::npos);
   options = DetectOptions();
   options.island_open_px = -2;
   EXPECT_NE(options.Check().find("island_open_px"), std::string::npos);

@@ -284,9 +284,14 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
   double largest_diameter_m = 0.0;
   for (const DetectRequest& request : requests) largest_diameter_m = std::max(largest_diameter_m, request.bank->diameter_m);
 
+  bool all_within = true;  // every request says where its object is (the mask path's search)
+  for (const DetectRequest& request : requests) all_within = all_within && !request.within.empty();
   {
     const ScopedTimer timer(&out.support_ms);
-    out.support_planes = FindSupport(frame, options, largest_diameter_m, &out.support, &out.raised);
+    // Outlined thin parts only join the islands, and requests with a place have none.
+    DetectOptions support_options = options;
+    if (all_within) support_options.raised_outline_edge = 0.0;
+    out.support_planes = FindSupport(frame, support_options, largest_diameter_m, &out.support, &out.raised);
   }
   const double focal = std::min(frame.camera.fx, frame.camera.fy);
   const double noise = options.segments.noise_sigmas * options.segments.sensor_noise_at_1m;
@@ -311,11 +316,9 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
   // segmented, grown by its longer side and by the object's size in pixels at the nearest
   // depth inside it (a region the object continues beyond a sliver stays whole).
   std::vector<int> within_pixels(requests.size(), 0);  // pixels with depth inside `within`
-  bool all_within = true;
   cv::Rect within_area;
   for (size_t r = 0; r < requests.size(); ++r) {
     const cv::Mat& within = requests[r].within;
-    all_within = all_within && !within.empty();
     if (within.empty()) continue;
     const cv::Rect box = cv::boundingRect(within);
     float nearest = std::numeric_limits<float>::infinity();

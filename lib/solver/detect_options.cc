@@ -19,6 +19,9 @@ std::string DetectOptions::Check() const {
   else if (raised_window_px < 1 || raised_window_px % 2 == 0) out << "DetectOptions.raised_window_px must be odd and >= 1 (got " << raised_window_px << ")";
   else if (raised_level_px < raised_window_px || raised_level_px % 2 == 0) out << "DetectOptions.raised_level_px must be odd and >= raised_window_px (got " << raised_level_px << ")";
   else if (!(raised_flatness > 0.0)) out << "DetectOptions.raised_flatness must be > 0 (got " << raised_flatness << ")";
+  else if (!(raised_outline_edge >= 0.0 && raised_outline_edge <= 1000.0)) out << "DetectOptions.raised_outline_edge must be in [0, 1000] (0 = off; got " << raised_outline_edge << ")";
+  else if (raised_outline_ring_px < 1) out << "DetectOptions.raised_outline_ring_px must be >= 1 (got " << raised_outline_ring_px << ")";
+  else if (!(raised_outline_min_noise >= 0.0)) out << "DetectOptions.raised_outline_min_noise must be >= 0 (got " << raised_outline_min_noise << ")";
   else if (!(raised_min_height_m >= 0.0 && raised_min_height_m < 0.1)) out << "DetectOptions.raised_min_height_m must be in [0, 0.1) m (got " << raised_min_height_m << ")";
   else if (island_open_px < -1 || island_open_px > 10) out << "DetectOptions.island_open_px must be in [-1, 10] (-1 = no islands; got " << island_open_px << ")";
   else if (!(island_split_core >= 0.0 && island_split_core <= 1.0)) out << "DetectOptions.island_split_core must be in [0, 1] (0 = no split; got " << island_split_core << ")";

@@ -61,6 +61,17 @@ struct DetectOptions {
   int raised_level_px = 101;
   double raised_min_height_m = 0.001;
   double raised_flatness = 1.5;
+  /// Thin parts the colour image outlines (OutlinedRaisedPixels in proposals.cc): an area of a
+  /// support enclosed by colour edges (Canny on the grey image, thresholds this and twice
+  /// this; 0 = off), no larger than the largest object, is raised when the mean of its heights
+  /// stands above the median height of the support within `raised_outline_ring_px` outside
+  /// its edges by more than raised_min_height_m, `raised_outline_min_noise` times the sensor's
+  /// noise at its depth, and raised_sigmas times its own noise over its size; and is level
+  /// (raised_flatness). A sheet-metal part on a bin's floor is 1-3 mm high: averaged over a
+  /// 13 x 13 square that reaches the floor around it, it stayed below the depth-only test.
+  double raised_outline_edge = 40.0;
+  int raised_outline_ring_px = 6;
+  double raised_outline_min_noise = 1.0;
   /// Islands (FormIslands, proposals.h): the connected parts of the frame less its support,
   /// opened by a (2 · island_open_px + 1) square, are candidate regions too, beside the depth
   /// segments and their unions (-1 = none). Not inside a request's `within`.

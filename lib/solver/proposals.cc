@@ -66,6 +66,23 @@ cv::Mat WeightedAverage(const cv::Mat& values, const cv::Mat& weights, int windo
   return average;
 }
 
+// The robust sigma of `values` (1.4826 times the median absolute deviation; reorders them).
+double RobustSigma(std::vector<float>* values) {
+  if (values->empty()) return 0.0;
+  const auto middle = values->begin() + static_cast<std::ptrdiff_t>(values->size() / 2);
+  std::nth_element(values->begin(), middle, values->end());
+  const float median = *middle;
+  for (float& x : *values) x = std::abs(x - median);
+  std::nth_element(values->begin(), middle, values->end());
+  return 1.4826 * *middle;
+}
+
+float Median(std::vector<float>* values) {
+  const auto middle = values->begin() + static_cast<std::ptrdiff_t>(values->size() / 2);
+  std::nth_element(values->begin(), middle, values->end());
+  return *middle;
+}
+
 // The pixels of a plane's support (`on_support`, CV_8U 0/255) that stand above its local
 // level (DetectOptions::raised_*): thin parts lying flat on it. CV_8U 0/255.
 cv::Mat RaisedPixels(const Frame& frame, const Plane& plane, const cv::Mat& on_support, const DetectOptions& options) {
@@ -115,15 +132,6 @@ cv::Mat RaisedPixels(const Frame& frame, const Plane& plane, const cv::Mat& on_s
   cv::Mat parts, stats, centroids;
   const int count = cv::connectedComponentsWithStats(raised, parts, stats, centroids, 8, CV_32S);
   if (count <= 1) return raised;
-  auto robust_sigma = [](std::vector<float>* values) {
-    if (values->empty()) return 0.0;
-    const auto middle = values->begin() + static_cast<std::ptrdiff_t>(values->size() / 2);
-    std::nth_element(values->begin(), middle, values->end());
-    const float median = *middle;
-    for (float& x : *values) x = std::abs(x - median);
-    std::nth_element(values->begin(), middle, values->end());
-    return 1.4826 * *middle;
-  };
   std::vector<std::vector<float>> part_heights(static_cast<size_t>(count));
   std::vector<float> support_heights;
   for (int v = 0; v < depth.rows; ++v) {
@@ -135,12 +143,12 @@ cv::Mat RaisedPixels(const Frame& frame, const Plane& plane, const cv::Mat& on_s
       else if (o[u] && (u + v) % 4 == 0) support_heights.push_back(h[u]);
     }
   }
-  const double support_sigma = robust_sigma(&support_heights);
+  const double support_sigma = RobustSigma(&support_heights);
   std::vector<uint8_t> keep(static_cast<size_t>(count), 0);
   for (int k = 1; k < count; ++k) {
     std::vector<float>& heights = part_heights[static_cast<size_t>(k)];
     keep[static_cast<size_t>(k)] = static_cast<int>(heights.size()) >= options.segments.min_segment_pixels &&
-                                   robust_sigma(&heights) <= options.raised_flatness * support_sigma;
+                                   RobustSigma(&heights) <= options.raised_flatness * support_sigma;
   }
   for (int v = 0; v < depth.rows; ++v) {
     const int* l = parts.ptr<int>(v);
@@ -148,6 +156,83 @@ cv::Mat RaisedPixels(const Frame& frame, const Plane& plane, const cv::Mat& on_s
     for (int u = 0; u < depth.cols; ++u) {
       if (l[u] > 0 && !keep[static_cast<size_t>(l[u])]) r[u] = 0;
     }
+  }
+  return raised;
+}
+
+// Thin parts that the colour image outlines on a support (DetectOptions::raised_outline_*): a
+// sheet-metal part on a bin's floor stands 1-3 mm above it, within a square's reach of the
+// floor on every side, so RaisedPixels' smoothed height dilutes it; its outline in the colour
+// image does not. An area of the support enclosed by colour edges, no larger than the largest
+// object, is raised when its heights as a whole (their mean, its noise shrinking with its
+// size) stand above the support around it (the median over a ring outside its edges) and are
+// level like the support's own. A table's texture is outlined too, but is not above the table.
+// CV_8U 0/255.
+// `edges`: the colour image's edges (CV_8U 0/255, one pixel thin and 8-connected, so that
+// they part the 4-connected areas on either side).
+cv::Mat OutlinedRaisedPixels(const Frame& frame, const Plane& plane, const cv::Mat& on_support, const cv::Mat& edges,
+                             double largest_diameter_m, const DetectOptions& options) {
+  cv::Mat raised = cv::Mat::zeros(on_support.size(), CV_8U);
+  if (edges.empty()) return raised;
+  const cv::Mat areas = on_support & ~edges;
+  cv::Mat labels, stats, centroids;
+  const int count = cv::connectedComponentsWithStats(areas, labels, stats, centroids, 4, CV_32S);
+  if (count <= 1) return raised;
+  const cv::Mat& depth = frame.depth;
+  const float toward = plane.Distance(Eigen::Vector3d::Zero()) >= 0.0 ? 1.0f : -1.0f;
+  auto height_at = [&](int u, int v) {
+    return toward * static_cast<float>(plane.Distance(frame.camera.Backproject(PixelCentre(u, v), depth.at<float>(v, u))));
+  };
+  std::vector<float> support_heights;
+  for (int v = 0; v < depth.rows; v += 2) {
+    const uint8_t* o = on_support.ptr<uint8_t>(v);
+    for (int u = (v / 2) % 2; u < depth.cols; u += 2) {
+      if (o[u]) support_heights.push_back(height_at(u, v));
+    }
+  }
+  const double support_sigma = RobustSigma(&support_heights);
+  const double focal = std::min(frame.camera.fx, frame.camera.fy);
+  const int ring = options.raised_outline_ring_px;
+  const cv::Mat ring_kernel = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * ring + 1, 2 * ring + 1));
+  for (int k = 1; k < count; ++k) {
+    const int area = stats.at<int>(k, cv::CC_STAT_AREA);
+    if (area < options.segments.min_segment_pixels) continue;
+    const cv::Rect box(stats.at<int>(k, cv::CC_STAT_LEFT), stats.at<int>(k, cv::CC_STAT_TOP),
+                       stats.at<int>(k, cv::CC_STAT_WIDTH), stats.at<int>(k, cv::CC_STAT_HEIGHT));
+    const double z = depth.at<float>(cvRound(centroids.at<double>(k, 1)), cvRound(centroids.at<double>(k, 0)));
+    const double object_px = focal * largest_diameter_m / (ValidDepth(static_cast<float>(z)) ? z : 1.0);
+    if (std::max(box.width, box.height) > object_px || area > 0.25 * M_PI * object_px * object_px) continue;
+    // Its heights, and the support's beyond its edges (outside the ring's inner edge band).
+    const cv::Rect grown = (box + cv::Point(-ring, -ring) + cv::Size(2 * ring, 2 * ring)) & cv::Rect(0, 0, depth.cols, depth.rows);
+    const cv::Mat inside = labels(grown) == k;
+    cv::Mat around;
+    cv::dilate(inside, around, ring_kernel);
+    std::vector<float> heights, outside;
+    for (int v = 0; v < grown.height; ++v) {
+      const uint8_t* in = inside.ptr<uint8_t>(v);
+      const uint8_t* a = around.ptr<uint8_t>(v);
+      const uint8_t* o = on_support.ptr<uint8_t>(grown.y + v) + grown.x;
+      const uint8_t* e = edges.ptr<uint8_t>(grown.y + v) + grown.x;
+      for (int u = 0; u < grown.width; ++u) {
+        if (in[u]) heights.push_back(height_at(grown.x + u, grown.y + v));
+        else if (a[u] && o[u] && !e[u]) outside.push_back(height_at(grown.x + u, grown.y + v));
+      }
+    }
+    if (static_cast<int>(outside.size()) < options.segments.min_segment_pixels) continue;
+    double mean = 0.0;
+    for (float h : heights) mean += h;
+    mean /= static_cast<double>(heights.size());
+    const double level = Median(&outside);
+    std::vector<float> spread = heights;
+    const double sigma = RobustSigma(&spread);
+    if (sigma > options.raised_flatness * support_sigma) continue;  // a ramp, not a part lying flat
+    // The sensor's noise is correlated over a few pixels: about one independent sample per 3 x 3.
+    const double independent = std::max(1.0, heights.size() / 9.0);
+    const double noise_at = options.segments.sensor_noise_at_1m * z * z;
+    const double threshold = std::max({options.raised_min_height_m, options.raised_outline_min_noise * noise_at,
+                                       options.raised_sigmas * sigma / std::sqrt(independent)});
+    if (mean - level <= threshold) continue;
+    raised(grown).setTo(255, inside);
   }
   return raised;
 }
@@ -177,6 +262,12 @@ int FindSupport(const Frame& frame, const DetectOptions& options, double largest
     }
   }
   const PlaneTolerance tolerance(options);
+  cv::Mat edges;  // for OutlinedRaisedPixels
+  if (options.raised_sigmas > 0.0 && options.raised_outline_edge > 0.0 && !frame.rgb.empty()) {
+    cv::Mat gray;
+    cv::cvtColor(frame.rgb, gray, cv::COLOR_RGB2GRAY);
+    cv::Canny(gray, edges, options.raised_outline_edge, 2.0 * options.raised_outline_edge);
+  }
   const size_t total_samples = samples.size();
   std::mt19937_64 random(1);
   int planes = 0;
@@ -237,7 +328,8 @@ int FindSupport(const Frame& frame, const DetectOptions& options, double largest
       }
     }
     if (options.raised_sigmas > 0.0) {
-      const cv::Mat above = RaisedPixels(frame, plane, on_support, options);
+      const cv::Mat above = RaisedPixels(frame, plane, on_support, options) |
+                            OutlinedRaisedPixels(frame, plane, on_support, edges, largest_diameter_m, options);
       if (raised != nullptr) *raised |= above;
       else on_support.setTo(0, above);
     }

@@ -281,6 +281,9 @@ class DetectOptions(_Options):
     raised_level_px: int
     raised_min_height_m: float
     raised_flatness: float
+    raised_outline_edge: float
+    raised_outline_ring_px: int
+    raised_outline_min_noise: float
     island_open_px: int
     island_split_core: float
     island_split_window: float
