@@ -213,6 +213,9 @@ int main(int argc, char** argv) {
   double icp_merge = -1.0;
   app.add_option("--icp-merge", icp_merge,
                  "hypotheses ICP brings within this fraction of the diameter of a better-ranked one are merged (0 = off; default: solver's)");
+  int ppf_skip = -1;
+  app.add_option("--ppf-skip-agreement", ppf_skip,
+                 "skip the point-pair vote when this many PnP poses agree on one pose (0 = always vote; default: solver's)");
   app.add_option("--pnp-min-quality", pnp_min_quality, "PnP only on sets with Q_j >= this fraction of Q_1 (default: solver's)");
   app.add_flag("--score-gt", score_gt,
                "also score the GT pose (S, 1 - J, depth term) beside S_A per instance: a miss with S(GT) < S_A is a "
@@ -408,6 +411,7 @@ int main(int argc, char** argv) {
     if (icp_probe >= 0) options.icp_probe_iterations = icp_probe;
     if (icp_finish > 0) options.icp_finish_hypotheses = icp_finish;
     if (icp_merge >= 0.0) options.icp_merge_fraction = icp_merge;
+    if (ppf_skip >= 0) options.ppf_skip_agreement = ppf_skip;
     if (icp_coarse >= 0) options.icp_coarse_points = icp_coarse;
     if (icp_stall >= 0) options.icp.stall_window = icp_stall;
     if (mhpo_min_rounds >= 0) options.mhpo.min_rounds = mhpo_min_rounds;
@@ -477,7 +481,7 @@ int main(int argc, char** argv) {
                    "icp_iterations,answer_set_rank,answer_quality_ratio,ppf_hypotheses,ppf_distinct,answer_from_ppf,"
                    "silhouette_hypotheses,silhouette_distinct,answer_from_silhouette,"
                    "on_surface,free_space,contour_support,mask_iou,mask_wider,mask_is_box,depth_region_chosen,"
-                   "neighbour_answer_chosen,duplicate_answer%s\n",
+                   "neighbour_answer_chosen,duplicate_answer,pnp_agreement%s\n",
                    unknown_identity ? ",chosen_id,right_identity,true_object_score,best_other_id,best_other_score,"
                                       "candidates_solved,screened_out,identify_ms"
                                     : "");
@@ -723,6 +727,7 @@ int main(int argc, char** argv) {
           std::fprintf(records, ",%.4f,%d,%d,%d,%d,%d", result.mask_iou, s.mask_wider_than_object ? 1 : 0,
                        s.mask_is_box ? 1 : 0, s.depth_region_chosen ? 1 : 0, s.neighbour_answer_chosen ? 1 : 0,
                        s.duplicate_answer ? 1 : 0);
+          std::fprintf(records, ",%d", s.pnp_agreement);
           if (unknown_identity) {
             // The true object's S and the best other object's: the margin identity was decided by.
             double true_score = 2.0, other_score = 2.0;
@@ -755,6 +760,8 @@ int main(int argc, char** argv) {
         counts["answers from an outline pose"].push_back(s.answer_from_silhouette ? 1 : 0);
         counts["kept (K)"].push_back(s.kept_hypotheses);
         counts["merged by ICP"].push_back(s.icp_merged);
+        counts["PnP poses agreeing"].push_back(s.pnp_agreement);
+        counts["point-pair vote skipped"].push_back(s.ppf_skipped ? 1 : 0);
         counts["ICP iterations"].push_back(s.icp_iterations);
         counts["ICP runs at the iteration limit"].push_back(s.icp_runs_at_max);
         ++done;
@@ -887,8 +894,15 @@ int main(int argc, char** argv) {
       std::printf("| %s | %.1f | %.1f |\n", stage.name, Percentile(times[stage.name], 0.5), Percentile(times[stage.name], 0.95));
     }
     std::printf("\nwork per instance\n| count | p50 | p95 |\n|---|---|---|\n");
-    for (const char* count : {"sets tried", "PnP poses", "distinct PnP poses", "kept (K)", "merged by ICP", "ICP iterations", "ICP runs at the iteration limit"}) {
+    for (const char* count : {"sets tried", "PnP poses", "distinct PnP poses", "kept (K)", "merged by ICP", "PnP poses agreeing", "ICP iterations", "ICP runs at the iteration limit"}) {
       std::printf("| %s | %.0f | %.0f |\n", count, Percentile(counts[count], 0.5), Percentile(counts[count], 0.95));
+    }
+    {
+      const std::vector<double>& skipped = counts["point-pair vote skipped"];
+      double sum = 0.0;
+      for (double x : skipped) sum += x;
+      std::printf("point-pair vote skipped (PnP poses agree, SolverOptions::ppf_skip_agreement): %.0f of %zu instances\n",
+                  sum, skipped.size());
     }
     // Where the answers came from (every instance counted, failures as from none).
     auto share = [&](const char* count) {

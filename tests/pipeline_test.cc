@@ -408,13 +408,14 @@ TEST_F(PipelineTest, EachSpeedChangeKeepsTheAnswerAndTheScheduleSavesIcpIteratio
   add("online mesh for selection", [](SolverOptions* o) { o->coarse_selection_mesh = false; });
   add("ICP probing", [](SolverOptions* o) { o->icp_probe_iterations = 6; });
   add("no ICP merge", [](SolverOptions* o) { o->icp_merge_fraction = 0.0; });
+  add("always the point-pair vote", [](SolverOptions* o) { o->ppf_skip_agreement = 0; });
   add("paper's ICP", [](SolverOptions* o) {
     o->icp_coarse_points = 0;
     o->icp.point_to_plane = false;
     o->icp.stall_window = 0;
   });
   long default_iterations = 0, paper_iterations = 0;
-  int merged = 0;
+  int merged = 0, skipped = 0;
   for (int trial = 0; trial < 3; ++trial) {
     const Eigen::Isometry3d truth = test::RandomPose(kCamera, 0.5, 0.8, &rng);
     test::SyntheticOptions view_options;
@@ -439,6 +440,13 @@ TEST_F(PipelineTest, EachSpeedChangeKeepsTheAnswerAndTheScheduleSavesIcpIteratio
         EXPECT_EQ(s.mhpo.hypotheses.size(), static_cast<size_t>(s.kept_hypotheses - s.icp_merged)) << name;
       }
       if (name == "default") merged += s.icp_merged;
+      // The point-pair vote is skipped exactly when enough PnP poses agree (and then casts nothing).
+      EXPECT_EQ(s.ppf_skipped, !bank_->ppf.empty() && options.ppf_skip_agreement > 0 &&
+                                   s.pnp_agreement >= options.ppf_skip_agreement) << name;
+      if (s.ppf_skipped) {
+        EXPECT_EQ(s.ppf_hypotheses, 0) << name;
+      }
+      if (name == "default") skipped += s.ppf_skipped;
       if (name == "default") default_iterations += s.icp_iterations;
       if (name == "paper's ICP") paper_iterations += s.icp_iterations;
     }
@@ -446,8 +454,12 @@ TEST_F(PipelineTest, EachSpeedChangeKeepsTheAnswerAndTheScheduleSavesIcpIteratio
   EXPECT_LT(default_iterations, paper_iterations);
   // Different starts slide into one basin: some of the kept hypotheses end on one pose.
   EXPECT_GT(merged, 0);
+  // The box's texture gives its pose: the vote is skipped for it (and the answers above hold).
+  EXPECT_FALSE(bank_->ppf.empty());
+  EXPECT_GT(skipped, 0);
   std::cout << "ICP iterations over 3 solves: default " << default_iterations << ", paper's schedule "
-            << paper_iterations << "; hypotheses merged by ICP: " << merged << "\n";
+            << paper_iterations << "; hypotheses merged by ICP: " << merged
+            << "; point-pair votes skipped: " << skipped << " of 3\n";
 }
 
 // The stage times are listed once, in pipeline order, for every report that prints them.

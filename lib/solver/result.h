@@ -45,6 +45,10 @@ struct StageReport {
   int ppf_hypotheses = 0;
   int ppf_distinct = 0;
   bool answer_from_ppf = false;
+  /// The most MSAC-PnP poses that agree on one pose, and whether the vote was skipped for it
+  /// (SolverOptions::ppf_skip_agreement).
+  int pnp_agreement = 0;
+  bool ppf_skipped = false;
   /// Poses from the mask's outline (SolverOptions::use_silhouettes): how many, how many were
   /// new, and whether T_A came from one of them.
   int silhouette_hypotheses = 0;

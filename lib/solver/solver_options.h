@@ -122,6 +122,14 @@ struct SolverOptions {
   /// and MHPO refine K + ppf_hypotheses poses. (Competing for the K slots instead, they
   /// displaced a textured object's right PnP pose at small K.)
   int ppf_hypotheses = 6;
+  /// The point-pair vote is skipped when at least this many MSAC-PnP poses (each from its
+  /// own correspondence set) agree on one pose (within distinct_pose_fraction of the
+  /// diameter, modulo the symmetries): the texture already gives the pose, and the vote and
+  /// the ICP of its poses are time spent for nothing. With GT masks, on the 212 instances of
+  /// real YCB-V, LM-O (every 2nd) and synth_dev where 4 or more agreed, ORB-PnP alone came
+  /// within 0.01 d of the answer with the vote every time; at 3 or fewer it lost 5 answers
+  /// (bench/RESULTS.md, issue 31 item 5). 0 = always vote.
+  int ppf_skip_agreement = 4;
   /// Hypotheses from the mask's outline (silhouette_poses.h): template silhouettes matched
   /// to the mask's at in-plane angles, scaled to its area. They need neither texture nor
   /// depth (metal that reflects the sensor's pattern away). Not for a box or a mask wider

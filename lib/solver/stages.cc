@@ -335,9 +335,20 @@ bool DistinctFromFirst(const SolveContext& c, const Search& search, size_t count
 }  // namespace
 
 void RunPpfStage(const SolveContext& c, Search* search) {
+  StageReport& stages = *c.stages;
+  // How many PnP poses agree on each distinct one: enough of them, and the texture gives the pose.
+  const double agree_m = c.options.distinct_pose_fraction * c.bank.diameter_m;
+  for (const Hypothesis& hypothesis : search->hypotheses) {
+    int agree = 0;
+    for (const Eigen::Isometry3d& pose : stages.pnp_poses) agree += c.comparer.Within(pose, hypothesis.cam_from_object, agree_m);
+    stages.pnp_agreement = std::max(stages.pnp_agreement, agree);
+  }
   if (!c.options.use_ppf || c.bank.ppf.empty() || c.observation.search_regions.empty()) return;
   if (!search->hypotheses.empty() && c.clock->OutOfTime(kPnpBudgetShare)) return;
-  StageReport& stages = *c.stages;
+  if (c.options.ppf_skip_agreement > 0 && stages.pnp_agreement >= c.options.ppf_skip_agreement) {
+    stages.ppf_skipped = true;
+    return;
+  }
   const Stopwatch watch;
   const PpfModel& model = c.bank.ppf;
   const PpfScene scene = MakePpfScene(c.frame.camera, c.observation.depth, c.observation.search_regions.front().mask,

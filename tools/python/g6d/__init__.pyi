@@ -211,6 +211,7 @@ class SolverOptions(_Options):
     use_ppf: bool
     ppf: PpfSearchOptions
     ppf_hypotheses: int
+    ppf_skip_agreement: int
     use_silhouettes: bool
     silhouette: SilhouetteOptions
     silhouette_hypotheses: int
