@@ -51,19 +51,25 @@ FloorScene EmptyScene() {
 
 // Plates 3 mm thick lying on the floor, depth on 60% of their pixels; their union in
 // scene.plate, the block none.
-FloorScene MakePlates(const std::vector<cv::Rect>& plates) {
-  FloorScene scene = EmptyScene();
-  for (const cv::Rect& plate : plates) scene.plate(plate).setTo(255);
-  std::mt19937 random(11);
-  std::normal_distribution<double> noise(0.0, 0.0007);
+// The floor's depth with the sensor's noise (σ `sigma_m`); scene->plate stands `height_m`
+// above it, with depth on `with_depth` of its pixels.
+void FillDepth(double height_m, double with_depth, double sigma_m, unsigned seed, FloorScene* scene) {
+  std::mt19937 random(seed);
+  std::normal_distribution<double> noise(0.0, sigma_m);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
   for (int v = 0; v < 480; ++v) {
     for (int u = 0; u < 640; ++u) {
-      const bool on_plate = scene.plate.at<uint8_t>(v, u) != 0;
-      if (on_plate && uniform(random) >= 0.6) continue;
-      scene.frame.depth.at<float>(v, u) = static_cast<float>(DepthAt(u, v, on_plate ? 0.003 : 0.0) + noise(random));
+      const bool on_plate = scene->plate.at<uint8_t>(v, u) != 0;
+      if (on_plate && uniform(random) >= with_depth) continue;
+      scene->frame.depth.at<float>(v, u) = static_cast<float>(DepthAt(u, v, on_plate ? height_m : 0.0) + noise(random));
     }
   }
+}
+
+FloorScene MakePlates(const std::vector<cv::Rect>& plates) {
+  FloorScene scene = EmptyScene();
+  for (const cv::Rect& plate : plates) scene.plate(plate).setTo(255);
+  FillDepth(0.003, 0.6, 0.0007, 11, &scene);
   return scene;
 }
 
@@ -172,16 +178,7 @@ FloorScene MakeBracketAndPaint(cv::Mat* paint) {
   draw_l(&scene.plate, cv::Point(200, 150));
   draw_l(paint, cv::Point(400, 250));
   scene.frame.rgb.setTo(cv::Scalar(200, 200, 205), scene.plate | *paint);
-  std::mt19937 random(5);
-  std::normal_distribution<double> noise(0.0, 0.001);
-  std::uniform_real_distribution<double> uniform(0.0, 1.0);
-  for (int v = 0; v < 480; ++v) {
-    for (int u = 0; u < 640; ++u) {
-      const bool on_bracket = scene.plate.at<uint8_t>(v, u) != 0;
-      if (on_bracket && uniform(random) >= 0.7) continue;
-      scene.frame.depth.at<float>(v, u) = static_cast<float>(DepthAt(u, v, on_bracket ? 0.0015 : 0.0) + noise(random));
-    }
-  }
+  FillDepth(0.0015, 0.7, 0.001, 5, &scene);
   return scene;
 }
 
