@@ -213,9 +213,12 @@ int main(int argc, char** argv) {
   double icp_merge = -1.0;
   app.add_option("--icp-merge", icp_merge,
                  "hypotheses ICP brings within this fraction of the diameter of a better-ranked one are merged (0 = off; default: solver's)");
-  int ppf_skip = -1;
+  int ppf_skip = -1, silhouette_skip = -1;
   app.add_option("--ppf-skip-agreement", ppf_skip,
                  "skip the point-pair vote when this many PnP poses agree on one pose (0 = always vote; default: solver's)");
+  app.add_option("--silhouette-skip-agreement", silhouette_skip,
+                 "skip the outline's poses when this many PnP poses agree on one pose (0 = always add them; default: "
+                 "solver's)");
   app.add_option("--pnp-min-quality", pnp_min_quality, "PnP only on sets with Q_j >= this fraction of Q_1 (default: solver's)");
   app.add_flag("--score-gt", score_gt,
                "also score the GT pose (S, 1 - J, depth term) beside S_A per instance: a miss with S(GT) < S_A is a "
@@ -306,8 +309,8 @@ int main(int argc, char** argv) {
   std::vector<double> detect_confidence;
   app.add_option("--detect-confidence", detect_confidence,
                  "--masks none: the confidence's weights (scripts/calibrate_detection.py): bias, S_A, ambiguous, "
-                 "on_surface, free_space, contour, region_iou, colour (default: DetectOptions')")
-      ->expected(8)
+                 "on_surface, free_space, contour, region_iou, colour, in_image (default: DetectOptions')")
+      ->expected(9)
       ->delimiter(',');
   app.add_option("--detect-min-confidence", detect_options.min_confidence,
                  "--masks none: an answer less confident than this is no answer")
@@ -368,7 +371,8 @@ int main(int argc, char** argv) {
     double* weights[] = {&detect_options.confidence_bias, &detect_options.confidence_score_weight,
                          &detect_options.confidence_ambiguous_weight, &detect_options.confidence_on_surface_weight,
                          &detect_options.confidence_free_space_weight, &detect_options.confidence_contour_weight,
-                         &detect_options.confidence_region_iou_weight, &detect_options.confidence_colour_weight};
+                         &detect_options.confidence_region_iou_weight, &detect_options.confidence_colour_weight,
+                         &detect_options.confidence_in_image_weight};
     for (size_t k = 0; k < detect_confidence.size(); ++k) *weights[k] = detect_confidence[k];
   }
 
@@ -412,6 +416,7 @@ int main(int argc, char** argv) {
     if (icp_finish > 0) options.icp_finish_hypotheses = icp_finish;
     if (icp_merge >= 0.0) options.icp_merge_fraction = icp_merge;
     if (ppf_skip >= 0) options.ppf_skip_agreement = ppf_skip;
+    if (silhouette_skip >= 0) options.silhouette_skip_agreement = silhouette_skip;
     if (icp_coarse >= 0) options.icp_coarse_points = icp_coarse;
     if (icp_stall >= 0) options.icp.stall_window = icp_stall;
     if (mhpo_min_rounds >= 0) options.mhpo.min_rounds = mhpo_min_rounds;
@@ -762,6 +767,7 @@ int main(int argc, char** argv) {
         counts["merged by ICP"].push_back(s.icp_merged);
         counts["PnP poses agreeing"].push_back(s.pnp_agreement);
         counts["point-pair vote skipped"].push_back(s.ppf_skipped ? 1 : 0);
+        counts["outline poses skipped"].push_back(s.silhouette_skipped ? 1 : 0);
         counts["ICP iterations"].push_back(s.icp_iterations);
         counts["ICP runs at the iteration limit"].push_back(s.icp_runs_at_max);
         ++done;
@@ -903,6 +909,11 @@ int main(int argc, char** argv) {
       for (double x : skipped) sum += x;
       std::printf("point-pair vote skipped (PnP poses agree, SolverOptions::ppf_skip_agreement): %.0f of %zu instances\n",
                   sum, skipped.size());
+      const std::vector<double>& outline_skipped = counts["outline poses skipped"];
+      double outline_sum = 0.0;
+      for (double x : outline_skipped) outline_sum += x;
+      std::printf("outline poses skipped (PnP poses agree, SolverOptions::silhouette_skip_agreement): %.0f of %zu instances\n",
+                  outline_sum, outline_skipped.size());
     }
     // Where the answers came from (every instance counted, failures as from none).
     auto share = [&](const char* count) {

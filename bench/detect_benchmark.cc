@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <limits>
 #include <map>
 #include <set>
@@ -82,7 +83,12 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
     if (!records) G6D_THROW("cannot write '" << args.records_csv << "'");
     std::fprintf(records,
                  "scene_id,im_id,obj_id,absent,score,confidence,ambiguous,on_surface,free_space,contour_support,"
-                 "rendered_pixels,region_iou,size_term,colour_term,shape_term,rank,runner_up_margin,error_d,correct\n");
+                 "rendered_pixels,region_iou,size_term,colour_term,shape_term,rank,runner_up_margin,error_d,correct,in_image\n");
+  }
+  if (!args.pictures_dir.empty()) {  // made when missing, before an hour of solving
+    std::error_code error;
+    std::filesystem::create_directories(args.pictures_dir, error);
+    if (error) G6D_THROW("cannot make the pictures folder '" << args.pictures_dir << "': " << error.message());
   }
   for (size_t i = 0; i < images.size(); ++i) {
     if (static_cast<int>(i) % args.every != 0) continue;
@@ -182,13 +188,13 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
           if (t.request != detection.request || !t.solved || !t.success || t.proposal == detection.proposal) continue;
           runner_up = std::min(runner_up, t.score);
         }
-        std::fprintf(records, "%d,%d,%d,%d,%.6f,%.6f,%d,%.4f,%.4f,%.4f,%d,%.4f,%.4f,%.4f,%.4f,%.4f,%.6f,%.4f,%d\n", scene_id,
+        std::fprintf(records, "%d,%d,%d,%d,%.6f,%.6f,%d,%.4f,%.4f,%.4f,%d,%.4f,%.4f,%.4f,%.4f,%.4f,%.6f,%.4f,%d,%.4f\n", scene_id,
                      im_id, obj_id, absent ? 1 : 0, detection.result.score, detection.result.confidence,
                      detection.result.ambiguous ? 1 : 0, detection.check.on_surface, detection.check.free_space,
                      detection.check.contour_support, detection.check.rendered_pixels, trial ? trial->region_iou : 0.0,
                      trial ? trial->size_term : 0.0, trial ? trial->colour_term : 0.5, trial ? trial->shape_term : 0.5,
                      trial ? trial->rank : 0.0, runner_up - detection.result.score,
-                     absent ? -1.0 : best / object.diameter_m, correct ? 1 : 0);
+                     absent ? -1.0 : best / object.diameter_m, correct ? 1 : 0, detection.check.in_image);
       }
       if (absent) {
         ++absent_answered;

@@ -5,7 +5,8 @@ a logistic in what the answer already has,
 
     S_A, ambiguous, on_surface, free_space, contour_support (its frame check, FrameCheck),
     region_iou (its corrected mask against the region solved), colour_term (the region's
-    chromaticity against the model's; 0.5 for a model without colour),
+    chromaticity against the model's; 0.5 for a model without colour), in_image (the share
+    of the object's surface at the answer's pose that projects into the image),
 
 Answers for absent objects (--absent-requests) are wrong answers. Measured honestly:
 leave-one-dataset-out (fit on the others, measured on the held-out one) and leave-one-object-
@@ -16,7 +17,9 @@ runner_up_margin is kept for analysis; with several instances of one object it m
 another instance, not a rival, and is not a feature.)
 
     python3 scripts/calibrate_detection.py synth_dev=out/geometry/new/synth_dev_none.records.csv \\
-        lmo=out/geometry/new/lmo_none.records.csv ycbv_real=... ycbv_clutter=...
+        lmo=out/geometry/new/lmo_none.records.csv ycbv_real=... ycbv_clutter=... [--without=in_image]
+
+--without=FEATURE (repeatable) fits without that feature, for an ablation.
 """
 import csv
 import os
@@ -25,8 +28,8 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from calibrate_confidence import fit, predict, report  # noqa: E402
 
-FEATURES = ["bias", "score", "ambiguous", "on_surface", "free_space", "contour", "region_iou", "colour"]
-COLUMNS = ["score", "ambiguous", "on_surface", "free_space", "contour_support", "region_iou", "colour_term"]
+FEATURES = ["bias", "score", "ambiguous", "on_surface", "free_space", "contour", "region_iou", "colour", "in_image"]
+COLUMNS = ["score", "ambiguous", "on_surface", "free_space", "contour_support", "region_iou", "colour_term", "in_image"]
 
 
 def features(r):
@@ -49,9 +52,17 @@ def load(path):
 
 
 def main():
-    if len(sys.argv) < 2 or any("=" not in a for a in sys.argv[1:]):
+    args = sys.argv[1:]
+    # --without=FEATURE (repeatable): fit without that feature (an ablation).
+    without = {a.split("=", 1)[1] for a in args if a.startswith("--without=")}
+    args = [a for a in args if not a.startswith("--without=")]
+    if not args or any("=" not in a for a in args) or not without <= set(FEATURES[1:]):
         sys.exit(__doc__)
-    datasets = {name: load(path) for name, path in (a.split("=", 1) for a in sys.argv[1:])}
+    for name in without:
+        i = FEATURES.index(name)
+        del FEATURES[i]
+        del COLUMNS[i - 1]
+    datasets = {name: load(path) for name, path in (a.split("=", 1) for a in args)}
     everything = [r for rows in datasets.values() for r in rows]
     w = fit(everything, features=features)
     print(f"fit on all {len(everything)} answers of {', '.join(datasets)}:")

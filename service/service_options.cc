@@ -223,7 +223,9 @@ void ParseServiceOptionsYaml(const std::string& text, const std::string& name,
                          {"reject_border_masks", bool_field(&o.solver.reject_border_masks)},
                          {"min_valid_depth_pixels", int_field(&o.solver.min_valid_depth_pixels)},
                          {"use_silhouettes", bool_field(&o.solver.use_silhouettes)},
-                         {"silhouette_hypotheses", int_field(&o.solver.silhouette_hypotheses)}});
+                         {"silhouette_hypotheses", int_field(&o.solver.silhouette_hypotheses)},
+                         {"ppf_skip_agreement", int_field(&o.solver.ppf_skip_agreement)},
+                         {"silhouette_skip_agreement", int_field(&o.solver.silhouette_skip_agreement)}});
              }},
             {"tracking", [&](const YAML::Node& n, const std::string& key) {
                ApplyMap(n, name, key,

@@ -155,6 +155,19 @@ TEST_F(PipelineTest, TheAnswerIsCheckedAgainstTheFrameAndItsConfidenceReadsIt) {
   const FrameCheck far = CheckAgainstFrame(frame, *bank_, behind, options.check_surface_fraction * bank_->diameter_m,
                                            options.check_step_m);
   EXPECT_LT(far.on_surface, 0.1);
+  // The whole box is in the image; moved sideways until its centre is past the image's
+  // right border, about half of its surface still projects into it, and then none.
+  EXPECT_NEAR(result.frame_check.in_image, 1.0, 1e-12);
+  auto moved_to = [&](double u) {
+    Eigen::Isometry3d pose = result.cam_from_object;
+    const double z = pose.translation().z();
+    pose.translation().x() = (u - frame.camera.cx) / frame.camera.fx * z;
+    return CheckAgainstFrame(frame, *bank_, pose, options.check_surface_fraction * bank_->diameter_m, options.check_step_m);
+  };
+  const FrameCheck at_border = moved_to(frame.camera.width);
+  EXPECT_GT(at_border.in_image, 0.2);
+  EXPECT_LT(at_border.in_image, 0.8);
+  EXPECT_EQ(moved_to(3.0 * frame.camera.width).in_image, 0.0);
   // Bad weights are named.
   options.confidence.score = 1.0;
   EXPECT_NE(options.Check().find("SolverOptions.confidence.score"), std::string::npos) << options.Check();
@@ -409,6 +422,7 @@ TEST_F(PipelineTest, EachSpeedChangeKeepsTheAnswerAndTheScheduleSavesIcpIteratio
   add("ICP probing", [](SolverOptions* o) { o->icp_probe_iterations = 6; });
   add("no ICP merge", [](SolverOptions* o) { o->icp_merge_fraction = 0.0; });
   add("always the point-pair vote", [](SolverOptions* o) { o->ppf_skip_agreement = 0; });
+  add("always the outline's poses", [](SolverOptions* o) { o->silhouette_skip_agreement = 0; });
   add("paper's ICP", [](SolverOptions* o) {
     o->icp_coarse_points = 0;
     o->icp.point_to_plane = false;
@@ -445,6 +459,13 @@ TEST_F(PipelineTest, EachSpeedChangeKeepsTheAnswerAndTheScheduleSavesIcpIteratio
                                    s.pnp_agreement >= options.ppf_skip_agreement) << name;
       if (s.ppf_skipped) {
         EXPECT_EQ(s.ppf_hypotheses, 0) << name;
+      }
+      // The outline's poses likewise (a mask, not a box: the stage runs).
+      EXPECT_EQ(s.silhouette_skipped, options.use_silhouettes && options.silhouette_hypotheses > 0 &&
+                                          options.silhouette_skip_agreement > 0 &&
+                                          s.pnp_agreement >= options.silhouette_skip_agreement) << name;
+      if (s.silhouette_skipped) {
+        EXPECT_EQ(s.silhouette_hypotheses, 0) << name;
       }
       if (name == "default") skipped += s.ppf_skipped;
       if (name == "default") default_iterations += s.icp_iterations;

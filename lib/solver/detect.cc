@@ -249,7 +249,8 @@ double DetectionConfidence(const DetectOptions& options, const PoseResult& resul
                        options.confidence_free_space_weight * check.free_space +
                        options.confidence_contour_weight * check.contour_support +
                        options.confidence_region_iou_weight * region_iou +
-                       options.confidence_colour_weight * colour_term;
+                       options.confidence_colour_weight * colour_term +
+                       options.confidence_in_image_weight * check.in_image;
   return 1.0 / (1.0 + std::exp(-logit));
 }
 

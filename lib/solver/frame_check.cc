@@ -63,6 +63,15 @@ FrameCheck CheckAgainstFrame(const Frame& frame, const TemplateBank& bank, const
     check.free_space = static_cast<double>(free_space) / check.rendered_pixels;
   }
   check.contour_support = ContourSupport(raster.depth, frame.depth, 2, static_cast<float>(step_m));
+  const std::vector<Eigen::Vector3f>& surface = bank.ppf.empty() ? bank.online_mesh.vertices : bank.ppf.points;
+  int inside = 0;
+  for (const Eigen::Vector3f& point : surface) {
+    const Eigen::Vector3d p = cam_from_object * point.cast<double>();
+    if (!(p.z() > 0.0)) continue;
+    const Eigen::Vector2d uv = frame.camera.Project(p);
+    inside += uv.x() >= 0.0 && uv.y() >= 0.0 && uv.x() < frame.camera.width && uv.y() < frame.camera.height;
+  }
+  if (!surface.empty()) check.in_image = static_cast<double>(inside) / static_cast<double>(surface.size());
   return check;
 }
 

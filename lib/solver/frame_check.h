@@ -19,6 +19,10 @@ struct FrameCheck {
   double on_surface = 0.0;       ///< fraction of them whose depth lies on the rendered surface
   double free_space = 0.0;       ///< ... whose depth lies behind it: the camera sees through the object
   double contour_support = 0.0;  ///< fraction of the outline where the depth steps
+  /// The share of the object's surface (the PPF model's evenly spaced samples; the online
+  /// mesh's vertices without one) that projects into the image: a pose mostly beyond the
+  /// image's border is checked on the little of it that is inside.
+  double in_image = 0.0;
 };
 
 /// Renders `bank`'s online mesh at `cam_from_object` into the frame and reads the depth:

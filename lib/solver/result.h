@@ -54,6 +54,7 @@ struct StageReport {
   int silhouette_hypotheses = 0;
   int silhouette_distinct = 0;
   bool answer_from_silhouette = false;
+  bool silhouette_skipped = false;  ///< PnP poses agreed (SolverOptions::silhouette_skip_agreement)
   int kept_hypotheses = 0;         ///< after observable selection (≤ N_H)
   int icp_converged = 0;
   int sets_tried = 0;               ///< correspondence sets PnP ran on (pnp_min_quality_ratio)

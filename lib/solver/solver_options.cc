@@ -24,6 +24,7 @@ std::string SolverOptions::Check() const {
   if (num_hypotheses < 1) out << "SolverOptions.num_hypotheses must be >= 1 (got " << num_hypotheses << ")";
   else if (ppf_hypotheses < 0) out << "SolverOptions.ppf_hypotheses must be >= 0 (got " << ppf_hypotheses << ")";
   else if (ppf_skip_agreement < 0) out << "SolverOptions.ppf_skip_agreement must be >= 0 (0 = always vote; got " << ppf_skip_agreement << ")";
+  else if (silhouette_skip_agreement < 0) out << "SolverOptions.silhouette_skip_agreement must be >= 0 (0 = always add the outline's poses; got " << silhouette_skip_agreement << ")";
   else if (silhouette_hypotheses < 0) out << "SolverOptions.silhouette_hypotheses must be >= 0 (got " << silhouette_hypotheses << ")";
   else if (region_candidates < 0 || region_candidates > 16) out << "SolverOptions.region_candidates must be in [0, 16] (got " << region_candidates << ")";
   else if (!(unsure_score >= 0.0 && std::isfinite(unsure_score))) out << "SolverOptions.unsure_score must be finite and >= 0 (got " << unsure_score << ")";

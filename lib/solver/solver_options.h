@@ -141,6 +141,13 @@ struct SolverOptions {
   SilhouetteOptions silhouette;
   /// Slots beyond K (and the PPF slots) for the outline's poses, the best by E_obs.
   int silhouette_hypotheses = 4;
+  /// The outline's poses are skipped, as the point-pair vote is (ppf_skip_agreement), when
+  /// at least this many MSAC-PnP poses agree on one pose: the texture gives the pose, and
+  /// the outline's poses only add ICP and MHPO work. From 3, over every dev set and input:
+  /// GT masks and no masks identical, cut masks +1 -1, merged identical, boxes +1; p50 per
+  /// instance with GT masks, side by side: YCB-V clutter -11%, foam brick -10%, synth_dev
+  /// -7%, LM-O unchanged (bench/RESULTS.md, issue 31 item 5). 0 = always add them.
+  int silhouette_skip_agreement = 3;
   int num_hypotheses = 18;      ///< N_H = K: hypotheses kept after observable selection
   ScoreOptions score;           ///< ω_C = 0.70, λ_S = 10
   GridOptions selection_grid = [] {

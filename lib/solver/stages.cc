@@ -415,6 +415,11 @@ void RunSilhouetteStage(const SolveContext& c, Search* search) {
   }
   if (!search->hypotheses.empty() && c.clock->OutOfTime(kPnpBudgetShare)) return;
   StageReport& stages = *c.stages;
+  // The texture already gives the pose (RunPpfStage counted the agreeing PnP poses).
+  if (c.options.silhouette_skip_agreement > 0 && stages.pnp_agreement >= c.options.silhouette_skip_agreement) {
+    stages.silhouette_skipped = true;
+    return;
+  }
   const Stopwatch watch;
   const double distinct_m = c.options.distinct_pose_fraction * c.bank.diameter_m;
   const SamePose same = [&](const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {

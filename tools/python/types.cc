@@ -139,6 +139,7 @@ py::dict StagesDict(const StageReport& s) {
   d["pnp_merged"] = s.pnp_merged;
   d["pnp_agreement"] = s.pnp_agreement;
   d["ppf_skipped"] = s.ppf_skipped;
+  d["silhouette_skipped"] = s.silhouette_skipped;
   d["icp_merged"] = s.icp_merged;
   d["icp_iterations"] = s.icp_iterations;
   d["icp_runs_at_max"] = s.icp_runs_at_max;
@@ -216,6 +217,7 @@ py::dict ResultDict(PoseResult result, const BankPtr& bank) {
   d["on_surface"] = result.frame_check.on_surface;
   d["free_space"] = result.frame_check.free_space;
   d["contour_support"] = result.frame_check.contour_support;
+  d["in_image"] = result.frame_check.in_image;
   d["mask_refined_rounds"] = result.mask_refined_rounds;
   d["stages"] = StagesDict(result.stages);
   return d;
@@ -341,6 +343,7 @@ void BindOptions(py::module_& module) {
         G6D_FIELD(unsure_score) G6D_FIELD(unsure_ambiguous_score) G6D_FIELD(explain_neighbours) G6D_FIELD(neighbour_min_fraction) G6D_FIELD(resolve_duplicates)
         G6D_FIELD(mask_refine_rounds) G6D_FIELD(match) G6D_FIELD(pnp) G6D_FIELD(use_ppf) G6D_FIELD(ppf)
         G6D_FIELD(ppf_hypotheses) G6D_FIELD(ppf_skip_agreement) G6D_FIELD(use_silhouettes) G6D_FIELD(silhouette) G6D_FIELD(silhouette_hypotheses)
+        G6D_FIELD(silhouette_skip_agreement)
         G6D_FIELD(num_hypotheses) G6D_FIELD(score)
         G6D_FIELD(selection_grid) G6D_FIELD(refine_grid) G6D_FIELD(icp) G6D_FIELD(run_icp)
         G6D_FIELD(max_observed_points) G6D_FIELD(max_source_points) G6D_FIELD(icp_coarse_points) G6D_FIELD(icp_merge_fraction)
@@ -387,7 +390,7 @@ void BindOptions(py::module_& module) {
         G6D_FIELD(ppf_contour_step_m) G6D_FIELD(max_free_space) G6D_FIELD(free_space_fraction)
         G6D_FIELD(min_contour_support) G6D_FIELD(confidence_bias) G6D_FIELD(confidence_score_weight)
         G6D_FIELD(confidence_ambiguous_weight) G6D_FIELD(confidence_on_surface_weight) G6D_FIELD(confidence_free_space_weight)
-        G6D_FIELD(confidence_contour_weight) G6D_FIELD(confidence_region_iou_weight) G6D_FIELD(confidence_colour_weight)
+        G6D_FIELD(confidence_contour_weight) G6D_FIELD(confidence_region_iou_weight) G6D_FIELD(confidence_colour_weight) G6D_FIELD(confidence_in_image_weight)
         G6D_FIELD(min_confidence).Done();
   }
   {

@@ -215,6 +215,7 @@ class SolverOptions(_Options):
     use_silhouettes: bool
     silhouette: SilhouetteOptions
     silhouette_hypotheses: int
+    silhouette_skip_agreement: int
     num_hypotheses: int
     score: ScoreOptions
     selection_grid: GridOptions
@@ -331,6 +332,7 @@ class DetectOptions(_Options):
     confidence_contour_weight: float
     confidence_region_iou_weight: float
     confidence_colour_weight: float
+    confidence_in_image_weight: float
     min_confidence: float
 
 class ViewSamplingOptions(_Options):
@@ -430,6 +432,7 @@ class PoseResult:
     on_surface: float
     free_space: float
     contour_support: float
+    in_image: float
     mask_refined_rounds: int
     stages: Dict[str, Any]
     bank: Optional[TemplateBank]
