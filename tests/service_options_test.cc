@@ -217,11 +217,11 @@ TEST(ParseServiceOptionsYaml, ReadsTheDetectionKeysAndCheckNamesABadOne) {
   ServiceOptions options;
   options.templates_dir = "caches";
   ParseServiceOptionsYaml(
-      "detect: {extra_candidates: 2, colour_weight: 0.25, max_score: 0.3, explain_away_passes: 0, "
+      "detect: {extra_candidates: 3, colour_weight: 0.25, max_score: 0.3, explain_away_passes: 0, "
       "max_planes: 2, support_extent_factor: 2.0, min_confidence: 0.5, rank_uncoloured_by_shape: false, "
       "raised_sigmas: 4.0, raised_outline_edge: 0, island_open_px: -1}\n",
       "detect.yaml", &options);
-  EXPECT_EQ(options.detect.extra_candidates, 2);
+  EXPECT_EQ(options.detect.extra_candidates, 3);
   EXPECT_EQ(options.detect.colour_weight, 0.25);
   EXPECT_EQ(options.detect.max_score, 0.3);
   EXPECT_EQ(options.detect.explain_away_passes, 0);

@@ -111,12 +111,17 @@ struct DetectOptions {
   /// region's depth (about (f · diameter / z)² · π / 8 for a compact object).
   double min_area_fraction = 0.05;
   /// Candidates solved per object: its count plus this many, best ranked first (a candidate
-  /// mostly inside one already chosen for solving is skipped). 1: on the real YCB-V sets the
-  /// object's region always ranked first or second; 2 costs half as much again and on the
-  /// sample let one wrong region beat the right one by S (97.2% against 100%,
-  /// bench/RESULTS.md, issue 23). The explaining-away pass gives an object without an
-  /// answer a second chance.
-  int extra_candidates = 1;
+  /// mostly inside one already chosen for solving is skipped). The explaining-away pass
+  /// gives an object without an answer a second chance. 2: the right region of a part
+  /// without colour often ranks 3rd or lower (its shape term is weak), and of an LM-O object
+  /// on a crowded table too. From 1 to 2, without masks: synth_dev 58.5% -> 61.7% (AR 0.565
+  /// -> 0.595), LM-O 90.4% -> 94.0% (0.906 -> 0.942), real YCB-V unchanged; wrong answers
+  /// at >= 0.9 3 -> 4 of 264 -> 282 and 2 -> 3 of 412 -> 427; absent objects refused on
+  /// synth_dev 90.0% -> 88.3%; p50 per image +24% (synth_dev 0.89 -> 1.11 s) and +36%
+  /// (YCB-V clutter, 3 objects, 0.45 -> 0.61 s), side by side (bench/RESULTS.md, "More
+  /// regions solved per object"). (At 2, issue 23's first detection lost a sample image to
+  /// a wrong region's S; the confidence has read the frame since.)
+  int extra_candidates = 2;
   /// The solve of a candidate region keeps at most this many hypotheses after observable
   /// selection (min with SolverOptions::num_hypotheses; 0 = the solver's K), and runs
   /// MSAC-PnP only on the correspondence sets whose quality Q_j is at least
