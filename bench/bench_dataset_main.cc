@@ -903,17 +903,11 @@ int main(int argc, char** argv) {
     for (const char* count : {"sets tried", "PnP poses", "distinct PnP poses", "kept (K)", "merged by ICP", "PnP poses agreeing", "ICP iterations", "ICP runs at the iteration limit"}) {
       std::printf("| %s | %.0f | %.0f |\n", count, Percentile(counts[count], 0.5), Percentile(counts[count], 0.95));
     }
-    {
-      const std::vector<double>& skipped = counts["point-pair vote skipped"];
-      double sum = 0.0;
-      for (double x : skipped) sum += x;
-      std::printf("point-pair vote skipped (PnP poses agree, SolverOptions::ppf_skip_agreement): %.0f of %zu instances\n",
-                  sum, skipped.size());
-      const std::vector<double>& outline_skipped = counts["outline poses skipped"];
-      double outline_sum = 0.0;
-      for (double x : outline_skipped) outline_sum += x;
-      std::printf("outline poses skipped (PnP poses agree, SolverOptions::silhouette_skip_agreement): %.0f of %zu instances\n",
-                  outline_sum, outline_skipped.size());
+    for (const auto& [count, option] : {std::pair<const char*, const char*>{"point-pair vote skipped", "ppf_skip_agreement"},
+                                         {"outline poses skipped", "silhouette_skip_agreement"}}) {
+      const std::vector<double>& skipped = counts[count];
+      std::printf("%s (PnP poses agree, SolverOptions::%s): %.0f of %zu instances\n", count, option,
+                  std::accumulate(skipped.begin(), skipped.end(), 0.0), skipped.size());
     }
     // Where the answers came from (every instance counted, failures as from none).
     auto share = [&](const char* count) {

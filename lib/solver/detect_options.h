@@ -249,8 +249,8 @@ struct DetectOptions {
   /// part laid onto a sliver of floor at the border explains it at S_A 0.02 (in_image).
   /// Fitted on 864 answers (synth_dev, LM-O, real YCB-V, at min_confidence 0, absent objects
   /// asked for; leave-one-object-out ECE 0.019, Brier 0.054, answers wrong with confidence
-  /// >= 0.9: 11; without in_image 0.016, 0.057, 12; bench/RESULTS.md, "Answers mostly
-  /// beyond the image").
+  /// >= 0.9: 11; without in_image 0.016, 0.057, 12; bench/RESULTS.md, "Speed with masks: the
+  /// outline's poses skipped too; answers mostly beyond the image").
   double confidence_bias = -18.239;
   double confidence_score_weight = -10.214;
   double confidence_ambiguous_weight = -1.962;
