@@ -127,6 +127,8 @@ int main(int argc, char** argv) {
   bool allow_border = false, reject_border = false, post_refine = false, score_gt = false;
   std::vector<int> adds_ids;
   app.add_flag("--post-refine", post_refine, "enable the optional post-refinement (stage 6)");
+  bool check_flips = false;
+  app.add_flag("--check-flips", check_flips, "check the answer's 180-degree flips about its box axes (SolverOptions::check_flips)");
   app.add_flag("--allow-border-masks", allow_border, "solve masks that touch the image border (the default; kept for old scripts)");
   app.add_flag("--reject-border-masks", reject_border, "refuse masks that touch the image border (truncated objects)");
   app.add_option("--adds-ids", adds_ids, "object ids scored with ADD-S besides models_info's symmetric ones (e.g. 1 for the YCB-V can)")
@@ -332,6 +334,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--detect-island-silhouettes", detect_options.island_silhouettes,
                  "--masks none: poses from the outline in the solves of islands (their outline is the support's edge)");
+  app.add_option("--detect-check-flips", detect_options.solve_check_flips,
+                 "--masks none: a candidate region's solve checks its answer's 180-degree flips (SolverOptions::check_flips)")
+      ->capture_default_str();
   app.add_option("--detect-solve-silhouettes", detect_options.solve_silhouettes,
                  "--masks none: a candidate region's solve adds poses from the region's outline")
       ->capture_default_str();
@@ -343,6 +348,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--detect-colour-weight", detect_options.colour_weight,
                  "--masks none: weight of the colour agreement in the ranking of candidate regions")
+      ->capture_default_str();
+  app.add_option("--detect-area-weight", detect_options.area_weight,
+                 "--masks none: weight of the region's area against the object's silhouettes in the size agreement "
+                 "of the ranking (0 = the 3D extent only)")
       ->capture_default_str();
   app.add_option("--detect-accept-confidence", detect_options.accept_confidence,
                  "--masks none: stop solving an object's candidates once it has its count of answers this confident "
@@ -430,6 +439,7 @@ int main(int argc, char** argv) {
     if (unsure_score >= 0.0) options.unsure_score = unsure_score;
     if (pnp_min_quality >= 0.0) options.pnp_min_quality_ratio = pnp_min_quality;
     options.post_refine = post_refine;
+    options.check_flips = options.check_flips || check_flips;
     if (icp_min_step > 0) options.icp.min_step_m = icp_min_step;
     if (icp_iterations > 0) options.icp.max_iterations = icp_iterations;
     if (source_points > 0) options.max_source_points = source_points;

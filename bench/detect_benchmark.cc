@@ -218,6 +218,7 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
       for (size_t p = 0; p < report.proposals.size(); ++p) pixels[p] = ProposalPixels(report, report.proposals[p]);
       // What each solved region holds: the GT instance of its object it overlaps most.
       std::vector<double> solved_holds(report.trials.size(), 0.0);
+      std::vector<int> solved_holder(report.trials.size(), -1);  // the GT instance held
       for (size_t g = 0; g < bop_frame.gt.size(); ++g) {
         const BopGtInstance& gt = bop_frame.gt[g];
         const auto request = std::find(obj_of_request.begin(), obj_of_request.end(), gt.obj_id);
@@ -226,16 +227,55 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
         for (size_t t = 0; t < report.trials.size(); ++t) {
           const CandidateTrial& trial = report.trials[t];
           if (!trial.solved || trial.request != static_cast<int>(request - obj_of_request.begin())) continue;
-          solved_holds[t] = std::max(solved_holds[t], Iou(pixels[static_cast<size_t>(trial.proposal)], visible));
+          const double iou = Iou(pixels[static_cast<size_t>(trial.proposal)], visible);
+          if (iou > solved_holds[t]) {
+            solved_holds[t] = iou;
+            solved_holder[t] = static_cast<int>(g);
+          }
         }
+      }
+      // Every ranked pair, for an analysis of the ranking: what its region holds.
+      for (size_t t = 0; t < report.trials.size(); ++t) {
+        const CandidateTrial& trial = report.trials[t];
+        double holds = 0.0;
+        int held = -1;
+        for (size_t g = 0; g < bop_frame.gt.size(); ++g) {
+          if (obj_of_request[static_cast<size_t>(trial.request)] != bop_frame.gt[g].obj_id) continue;
+          const double iou = Iou(pixels[static_cast<size_t>(trial.proposal)], LoadBopMaskVisib(scene, im_id, static_cast<int>(g)) > 0);
+          if (iou > holds) {
+            holds = iou;
+            held = static_cast<int>(g);
+          }
+        }
+        const Proposal& proposal = report.proposals[static_cast<size_t>(trial.proposal)];
+        std::fprintf(stderr, "      trial: request %d pass %d rank %.3f size %.3f colour %.3f shape %.3f area %.3f aterm %.3f pixels %d mask_pixels %d kind %s holds %.2f gt %d solved %d\n",
+                     trial.request, trial.pass, trial.rank, trial.size_term, trial.colour_term, trial.shape_term,
+                     trial.area_ratio, trial.area_term, proposal.pixels, proposal.mask_pixels,
+                     proposal.ppf_request >= 0 ? "ppf" : proposal.mask.empty() ? "segments" : "island", holds, held, trial.solved ? 1 : 0);
       }
       for (size_t t = 0; t < report.trials.size(); ++t) {
         const CandidateTrial& trial = report.trials[t];
         if (!trial.solved) continue;
-        std::fprintf(stderr, "      solved: request %d rank %.3f (size %.2f shape %.2f; %s) holds an instance at IoU %.2f%s\n",
+        // The answer of the solve against the instance its region holds (error / diameter).
+        std::string verdict = trial.success ? "" : ", no pose";
+        if (trial.success && solved_holds[t] >= 0.5) {
+          const BopGtInstance& gt = bop_frame.gt[static_cast<size_t>(solved_holder[t])];
+          const BenchObject& object = objects.at(gt.obj_id);
+          const double error = object.symmetric ? ComputeAdds(trial.cam_from_object, gt.cam_from_object, object.points)
+                                                : ComputeAdd(trial.cam_from_object, gt.cam_from_object, object.points);
+          char text[96];
+          std::snprintf(text, sizeof(text), ", S %.3f conf %.2f error %.2f d (GT %d)", trial.score, trial.confidence,
+                        error / object.diameter_m, solved_holder[t]);
+          verdict = text;
+        } else if (trial.success) {
+          char text[64];
+          std::snprintf(text, sizeof(text), ", S %.3f conf %.2f", trial.score, trial.confidence);
+          verdict = text;
+        }
+        std::fprintf(stderr, "      solved: request %d rank %.3f (size %.2f shape %.2f; %s) holds an instance at IoU %.2f%s%s\n",
                      trial.request, trial.rank, trial.size_term, trial.shape_term,
                      report.proposals[static_cast<size_t>(trial.proposal)].mask.empty() ? "segments" : "own mask",
-                     solved_holds[t], solved_holds[t] < 0.5 ? " (NONE)" : "");
+                     solved_holds[t], solved_holds[t] < 0.5 ? " (NONE)" : "", verdict.c_str());
       }
       for (size_t g = 0; g < bop_frame.gt.size(); ++g) {
         const BopGtInstance& gt = bop_frame.gt[g];

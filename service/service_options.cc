@@ -225,7 +225,8 @@ void ParseServiceOptionsYaml(const std::string& text, const std::string& name,
                          {"use_silhouettes", bool_field(&o.solver.use_silhouettes)},
                          {"silhouette_hypotheses", int_field(&o.solver.silhouette_hypotheses)},
                          {"ppf_skip_agreement", int_field(&o.solver.ppf_skip_agreement)},
-                         {"silhouette_skip_agreement", int_field(&o.solver.silhouette_skip_agreement)}});
+                         {"silhouette_skip_agreement", int_field(&o.solver.silhouette_skip_agreement)},
+                         {"check_flips", bool_field(&o.solver.check_flips)}});
              }},
             {"tracking", [&](const YAML::Node& n, const std::string& key) {
                ApplyMap(n, name, key,
@@ -250,6 +251,8 @@ void ParseServiceOptionsYaml(const std::string& text, const std::string& name,
                          {"max_solve_hypotheses", int_field(&o.detect.max_solve_hypotheses)},
                          {"solve_pnp_min_quality", double_field(&o.detect.solve_pnp_min_quality)},
                          {"solve_silhouettes", bool_field(&o.detect.solve_silhouettes)},
+                         {"solve_check_flips", bool_field(&o.detect.solve_check_flips)},
+                         {"area_weight", double_field(&o.detect.area_weight)},
                          {"max_planes", int_field(&o.detect.max_planes)},
                          {"support_extent_factor", double_field(&o.detect.support_extent_factor)},
                          {"raised_sigmas", double_field(&o.detect.raised_sigmas)},

@@ -163,6 +163,17 @@ TEST_F(DetectTest, FindsEachObjectOnTheTableWithoutAMask) {
     ASSERT_GE(detection.proposal, 0);
     EXPECT_FALSE(detection.region.empty());
     EXPECT_GT(cv::countNonZero(detection.region), 500);
+    // A whole object's region covers about one of its silhouettes (DetectOptions::area_weight):
+    // the ratio to the median silhouette at its depth is near 1, its agreement high.
+    int ranked = 0;
+    for (const CandidateTrial& trial : report.trials) {
+      if (trial.proposal != detection.proposal || trial.request != detection.request) continue;
+      ++ranked;
+      EXPECT_GT(trial.area_ratio, 0.5) << detection.object_id;
+      EXPECT_LT(trial.area_ratio, 2.0) << detection.object_id;
+      EXPECT_GT(trial.area_term, 0.7) << detection.object_id;
+    }
+    EXPECT_GE(ranked, 1) << detection.object_id << ": its region was never ranked";
   }
   EXPECT_NE(detections[0].object_id, detections[1].object_id);
   // Answers come best first and every stage reported its time.

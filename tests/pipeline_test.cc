@@ -366,6 +366,33 @@ TEST_F(PipelineTest, PrintedBoxFlipIsResolvedByAppearanceAndNotReportedAsAmbiguo
   EXPECT_EQ(correct, trials);
 }
 
+// The answer's flips (SolverOptions::check_flips) join the finalists: they are refined and
+// compared, and a printed box, whose shape the flips map onto itself, keeps its right answer
+// (its print tells the sides apart) without being called ambiguous. Off, none is checked.
+TEST_F(PipelineTest, TheAnswersFlipsAreCheckedAndAPrintedBoxKeepsItsSide) {
+  GlRenderer renderer(*mesh_);
+  ThreadPool pool(2);
+  std::mt19937_64 rng(37);
+  SolverOptions plain;
+  plain.silhouette_skip_agreement = 0;  // the check runs even where the texture agrees
+  SolverOptions flips = plain;
+  flips.check_flips = true;
+  int correct = 0;
+  const int trials = 4;
+  for (int trial = 0; trial < trials; ++trial) {
+    const Eigen::Isometry3d truth = test::RandomPose(kCamera, 0.5, 0.8, &rng);
+    const test::SyntheticView view = test::RenderSyntheticView(&renderer, *mesh_, kCamera, truth, {});
+    const PoseResult a = EstimatePose(MakeFrame(view), {"box", view.mask}, *bank_, plain, &pool);
+    const PoseResult b = EstimatePose(MakeFrame(view), {"box", view.mask}, *bank_, flips, &pool);
+    ASSERT_TRUE(a.success && b.success) << a.message << " / " << b.message;
+    EXPECT_EQ(a.stages.flips_checked, 0);
+    EXPECT_EQ(b.stages.flips_checked, 3) << "trial " << trial;
+    EXPECT_FALSE(b.ambiguous) << "trial " << trial << ": runner-up S " << b.runner_up_score << " vs " << b.score;
+    correct += ComputeAdd(b.cam_from_object, truth, mesh_->vertices) < 0.1 * bank_->diameter_m;
+  }
+  EXPECT_EQ(correct, trials);
+}
+
 TEST_F(PipelineTest, TinyBudgetGivesAValidPoseMarkedCutShort) {
   GlRenderer renderer(*mesh_);
   std::mt19937_64 rng(3);

@@ -63,8 +63,10 @@ PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, con
   // battery split at their own creases, and a fragment) cost little. On LM-O merged masks
   // 93.5% against 93.3% with 3, boxes 92.4% against 91.8% (bench/RESULTS.md, issue 22).
   detect.max_union_segments = 4;
-  // The support as this search was measured with (detection's default is 5 since).
+  // The support and the ranking as this search was measured with (detection's defaults are
+  // 5 planes and the area's agreement since).
   detect.max_planes = 3;
+  detect.area_weight = 0.0;
   // The regions inside a mask are solved as the mask is (its K, PnP on every set).
   detect.max_solve_hypotheses = 0;
   detect.solve_pnp_min_quality = 0.0;

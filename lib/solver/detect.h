@@ -26,6 +26,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
 #include "core/executor.h"
@@ -63,11 +64,18 @@ struct CandidateTrial {
   double size_term = 0.0;    ///< extent / diameter, in [0, 1]
   double colour_term = 0.5;  ///< chromaticity agreement in [0, 1] (0.5 = no colour model)
   double shape_term = 0.5;   ///< PPF support over the best region's, in [0, 1] (0.5 = no PPF model)
+  /// The region's area (pixels with depth; an island's whole mask) over the object's median
+  /// silhouette area at the region's depth, and its agreement with the silhouettes' range in
+  /// [0, 1] (DetectOptions::area_weight).
+  double area_ratio = 0.0;
+  double area_term = 1.0;
   double rank = 0.0;         ///< the ranking score (higher first)
   bool solved = false;
   bool success = false;
   double score = 2.0;        ///< S_A when solved
   double region_iou = 0.0;   ///< IoU of the answer's corrected mask with the region solved
+  double confidence = 0.0;   ///< DetectionConfidence of the answer when solved with success
+  Eigen::Isometry3d cam_from_object = Eigen::Isometry3d::Identity();  ///< the answer when solved with success
   double ms = 0.0;           ///< solve time
 };
 

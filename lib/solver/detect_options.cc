@@ -40,6 +40,7 @@ std::string DetectOptions::Check() const {
   else if (max_solve_hypotheses < 0) out << "DetectOptions.max_solve_hypotheses must be >= 0 (got " << max_solve_hypotheses << ")";
   else if (!(solve_pnp_min_quality >= 0.0 && solve_pnp_min_quality <= 1.0)) out << "DetectOptions.solve_pnp_min_quality must be in [0, 1] (got " << solve_pnp_min_quality << ")";
   else if (!(colour_weight >= 0.0 && colour_weight <= 1.0)) out << "DetectOptions.colour_weight must be in [0, 1] (got " << colour_weight << ")";
+  else if (!(area_weight >= 0.0 && area_weight <= 1.0)) out << "DetectOptions.area_weight must be in [0, 1] (got " << area_weight << ")";
   else if (!(accept_confidence >= 0.0 && accept_confidence <= 1.0)) out << "DetectOptions.accept_confidence must be in [0, 1] (got " << accept_confidence << ")";
   else if (!(accept_region_iou >= 0.0 && accept_region_iou <= 1.0)) out << "DetectOptions.accept_region_iou must be in [0, 1] (got " << accept_region_iou << ")";
   else if (fill_gap_px < 0) out << "DetectOptions.fill_gap_px must be >= 0 (got " << fill_gap_px << ")";

@@ -1,9 +1,11 @@
 #include "solver/finalists.h"
 
 #include <algorithm>
+#include <cmath>
 #include <utility>
 
 #include "core/timer.h"
+#include "render/raster.h"
 
 namespace g6d {
 
@@ -68,12 +70,64 @@ void ResolveFinalists(const SolverOptions& options, const TemplateBank& bank, co
   }
 }
 
-void RunFinalistStage(const SolveContext& c, std::vector<Finalist> finalists, const std::vector<Hypothesis>& kept,
-                      const std::vector<CorrespondenceSet>& sets, PoseResult* result) {
+namespace {
+
+// T_A's 180-degree turns about the bounding box's three axes through its centre, each
+// refined by ICP and MHPO on `target` (SolverOptions::check_flips).
+std::vector<Finalist> FlippedFinalists(const SolveContext& c, const MhpoTarget& target, const Eigen::Isometry3d& answer) {
+  const SolverOptions& options = c.options;
+  const Eigen::Vector3d centre = c.bank.bounding_box.center();
+  std::vector<Eigen::Isometry3d> flips;
+  for (int axis = 0; axis < 3; ++axis) {
+    Eigen::Isometry3d flip = Eigen::Isometry3d::Identity();
+    flip.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::Unit(axis)).toRotationMatrix();
+    flip.translation() = centre - flip.linear() * centre;
+    flips.push_back(answer * flip);
+  }
+  c.executor->ParallelFor(static_cast<int>(flips.size()), [&](int k) {
+    RasterImage scratch;
+    if (options.run_icp) {
+      RunIcpFrom(options, c.bank.online_mesh, c.observation.refine_grid, c.online_score, *c.observation.observed,
+                 c.bank.diameter_m, options.max_source_points, options.icp.max_iterations, &scratch,
+                 &flips[static_cast<size_t>(k)]);
+    }
+  });
+  std::vector<Finalist> out;
+  if (options.run_mhpo) {
+    Eigen::Isometry3d best;
+    MhpoReport report;
+    RefineByMhpo(options.mhpo, c.online_score, target, c.bank.online_mesh, flips, c.executor, &best, &report);
+    if (!report.success) return out;
+    for (const MhpoHypothesisReport& h : report.hypotheses) out.push_back(Finalist{h.best_cam_from_object, h.best_score, -1});
+  } else {
+    for (const Eigen::Isometry3d& flip : flips) {
+      RasterImage scratch;
+      out.push_back(Finalist{flip, ScorePose(*target.grid, c.bank.online_mesh, flip, target.z_m, c.online_score, &scratch), -1});
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+void RunFinalistStage(const SolveContext& c, const MhpoTarget& target, std::vector<Finalist> finalists,
+                      const std::vector<Hypothesis>& kept, const std::vector<CorrespondenceSet>& sets, PoseResult* result) {
   StageReport& stages = *c.stages;
   const Stopwatch watch;
   finalists.push_back(Finalist{result->cam_from_object, result->details, stages.answer_hypothesis});
-  if (!c.clock->OutOfTime()) {
+  const bool texture_agrees = c.options.silhouette_skip_agreement > 0 && stages.pnp_agreement >= c.options.silhouette_skip_agreement;
+  if (c.options.check_flips && !texture_agrees && !c.clock->OutOfTime()) {
+    const Eigen::Isometry3d first = result->cam_from_object;
+    for (Finalist& flip : FlippedFinalists(c, target, first)) {
+      finalists.push_back(std::move(flip));
+      ++stages.flips_checked;
+    }
+    if (!c.clock->OutOfTime()) {
+      ResolveFinalists(c.options, c.bank, c.frame, c.observation.mask, c.comparer.symmetries(), c.comparer.points(),
+                       std::move(finalists), result);
+    }
+    stages.flip_answer = !result->cam_from_object.isApprox(first);
+  } else if (!c.clock->OutOfTime()) {
     ResolveFinalists(c.options, c.bank, c.frame, c.observation.mask, c.comparer.symmetries(), c.comparer.points(),
                      std::move(finalists), result);
   }

@@ -11,6 +11,7 @@
 
 #include "core/frame.h"
 #include "solver/match.h"
+#include "solver/mhpo.h"
 #include "solver/result.h"
 #include "solver/score.h"
 #include "solver/solve_context.h"
@@ -35,7 +36,9 @@ void ResolveFinalists(const SolverOptions& options, const TemplateBank& bank, co
 
 /// The finalists (T_A last, as stage 6 may have moved it): symmetric duplicates merged,
 /// appearance tie-break, runner-up and ambiguity; then where the answer came from.
-void RunFinalistStage(const SolveContext& c, std::vector<Finalist> finalists, const std::vector<Hypothesis>& kept,
-                      const std::vector<CorrespondenceSet>& sets, PoseResult* result);
+/// With options.check_flips, T_A's flips (SolverOptions::check_flips) refined on `target`
+/// join the finalists first.
+void RunFinalistStage(const SolveContext& c, const MhpoTarget& target, std::vector<Finalist> finalists,
+                      const std::vector<Hypothesis>& kept, const std::vector<CorrespondenceSet>& sets, PoseResult* result);
 
 }  // namespace g6d

@@ -113,7 +113,7 @@ PoseResult EstimatePoseOnMask(const Frame& frame, const Instance& instance, cons
     const MhpoTarget target = MakeMhpoTarget(observation.refine_grid, observation.z_m);
     std::vector<Finalist> finalists = RunMhpoStage(context, target, kept, icp, &result);  // stage 5: T_A, S_A
     RunPostRefineStage(context, target, &result);                                    // stage 6 (optional)
-    RunFinalistStage(context, std::move(finalists), kept, search.sets, &result);     // runner-up, appearance
+    RunFinalistStage(context, target, std::move(finalists), kept, search.sets, &result);  // flips, runner-up, appearance
     watch.Restart();                                                                 // the mask refined with the pose
     RefineWithCorrectedMask(frame, instance, bank, options, observation, context.online_score,
                             [&clock] { return clock.OutOfTime(); }, executor, &result);

@@ -108,6 +108,8 @@ struct StageReport {
   int distinct_finalists = 0;         ///< finalists left after merging poses equal modulo symmetry
   int appearance_compared = 0;        ///< finalists whose appearance was scored
   bool appearance_changed = false;    ///< appearance replaced the lowest-S pose as T_A
+  int flips_checked = 0;              ///< T_A's flips refined and compared (SolverOptions::check_flips)
+  bool flip_answer = false;           ///< a flip of the first T_A fitted better and is the answer
   bool post_refine_ran = false;       ///< stage 6 was triggered
   bool post_refine_accepted = false;  ///< and replaced T_A
   /// Best pose after each stage, for per-stage recall (seed, pnp, observable, icp, mhpo);

@@ -148,6 +148,14 @@ struct SolverOptions {
   /// instance with GT masks, side by side: YCB-V clutter -11%, foam brick -10%, synth_dev
   /// -7%, LM-O unchanged (bench/RESULTS.md, issue 31 item 5). 0 = always add them.
   int silhouette_skip_agreement = 3;
+  /// The answer's flips checked: T_A turned 180 degrees about each of the three axes of the
+  /// object's bounding box through its centre (the usual confusions of a near-symmetric
+  /// shape seen from one side: a bracket, a plate with holes), each refined by ICP and MHPO
+  /// as the hypotheses were, join the finalists. A flip that fits better becomes the
+  /// answer; one within ambiguity_margin of it makes the answer ambiguous (a lower
+  /// confidence). Skipped when `silhouette_skip_agreement` PnP poses agree (the texture
+  /// tells the sides apart). Its time is part of the finalists' stage.
+  bool check_flips = false;
   int num_hypotheses = 18;      ///< N_H = K: hypotheses kept after observable selection
   ScoreOptions score;           ///< ω_C = 0.70, λ_S = 10
   GridOptions selection_grid = [] {

@@ -443,11 +443,15 @@ py::tuple FindObjectsCall(const FramePtr& frame, const py::list& request_objects
     t["pass"] = trial.pass;
     t["size_term"] = trial.size_term;
     t["colour_term"] = trial.colour_term;
+    t["shape_term"] = trial.shape_term;
+    t["area_ratio"] = trial.area_ratio;
+    t["area_term"] = trial.area_term;
     t["rank"] = trial.rank;
     t["solved"] = trial.solved;
     t["success"] = trial.success;
     t["score"] = trial.score;
     t["region_iou"] = trial.region_iou;
+    t["confidence"] = trial.confidence;
     t["ms"] = trial.ms;
     trials.append(t);
   }

@@ -140,6 +140,8 @@ py::dict StagesDict(const StageReport& s) {
   d["pnp_agreement"] = s.pnp_agreement;
   d["ppf_skipped"] = s.ppf_skipped;
   d["silhouette_skipped"] = s.silhouette_skipped;
+  d["flips_checked"] = s.flips_checked;
+  d["flip_answer"] = s.flip_answer;
   d["icp_merged"] = s.icp_merged;
   d["icp_iterations"] = s.icp_iterations;
   d["icp_runs_at_max"] = s.icp_runs_at_max;
@@ -343,7 +345,7 @@ void BindOptions(py::module_& module) {
         G6D_FIELD(unsure_score) G6D_FIELD(unsure_ambiguous_score) G6D_FIELD(explain_neighbours) G6D_FIELD(neighbour_min_fraction) G6D_FIELD(resolve_duplicates)
         G6D_FIELD(mask_refine_rounds) G6D_FIELD(match) G6D_FIELD(pnp) G6D_FIELD(use_ppf) G6D_FIELD(ppf)
         G6D_FIELD(ppf_hypotheses) G6D_FIELD(ppf_skip_agreement) G6D_FIELD(use_silhouettes) G6D_FIELD(silhouette) G6D_FIELD(silhouette_hypotheses)
-        G6D_FIELD(silhouette_skip_agreement)
+        G6D_FIELD(silhouette_skip_agreement) G6D_FIELD(check_flips)
         G6D_FIELD(num_hypotheses) G6D_FIELD(score)
         G6D_FIELD(selection_grid) G6D_FIELD(refine_grid) G6D_FIELD(icp) G6D_FIELD(run_icp)
         G6D_FIELD(max_observed_points) G6D_FIELD(max_source_points) G6D_FIELD(icp_coarse_points) G6D_FIELD(icp_merge_fraction)
@@ -384,7 +386,7 @@ void BindOptions(py::module_& module) {
         G6D_FIELD(extent_margin_px) G6D_FIELD(min_extent_fraction) G6D_FIELD(min_area_fraction)
         G6D_FIELD(extra_candidates) G6D_FIELD(colour_weight) G6D_FIELD(rank_uncoloured_by_shape) G6D_FIELD(shape_references) G6D_FIELD(accept_confidence)
         G6D_FIELD(accept_region_iou) G6D_FIELD(fill_gap_px) G6D_FIELD(explain_away_passes) G6D_FIELD(found_object_passes)
-        G6D_FIELD(max_solve_hypotheses) G6D_FIELD(solve_pnp_min_quality) G6D_FIELD(solve_silhouettes) G6D_FIELD(max_score)
+        G6D_FIELD(max_solve_hypotheses) G6D_FIELD(solve_pnp_min_quality) G6D_FIELD(solve_silhouettes) G6D_FIELD(solve_check_flips) G6D_FIELD(area_weight) G6D_FIELD(max_score)
         G6D_FIELD(max_overlap) G6D_FIELD(ppf_extra) G6D_FIELD(ppf_reference_stride) G6D_FIELD(ppf_max_scene_points)
         G6D_FIELD(ppf_surface_fraction) G6D_FIELD(ppf_max_free_space) G6D_FIELD(ppf_min_contour_support)
         G6D_FIELD(ppf_contour_step_m) G6D_FIELD(max_free_space) G6D_FIELD(free_space_fraction)

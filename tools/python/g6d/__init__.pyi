@@ -216,6 +216,7 @@ class SolverOptions(_Options):
     silhouette: SilhouetteOptions
     silhouette_hypotheses: int
     silhouette_skip_agreement: int
+    check_flips: bool
     num_hypotheses: int
     score: ScoreOptions
     selection_grid: GridOptions
@@ -312,6 +313,8 @@ class DetectOptions(_Options):
     max_solve_hypotheses: int
     solve_pnp_min_quality: float
     solve_silhouettes: bool
+    solve_check_flips: bool
+    area_weight: float
     max_score: float
     max_overlap: float
     ppf_extra: int
