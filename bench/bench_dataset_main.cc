@@ -349,6 +349,9 @@ int main(int argc, char** argv) {
   app.add_option("--detect-colour-weight", detect_options.colour_weight,
                  "--masks none: weight of the colour agreement in the ranking of candidate regions")
       ->capture_default_str();
+  app.add_option("--detect-max-union", detect_options.max_union_segments,
+                 "--masks none: neighbouring depth segments joined into one candidate region, at most")
+      ->capture_default_str();
   app.add_option("--detect-area-weight", detect_options.area_weight,
                  "--masks none: weight of the region's area against the object's silhouettes in the size agreement "
                  "of the ranking (0 = the 3D extent only)")
