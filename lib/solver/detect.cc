@@ -363,6 +363,8 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
     area(within_area & cv::Rect(0, 0, area.cols, area.rows)).setTo(255);
     first_region &= area;
   }
+  std::vector<std::array<double, 3>> silhouette_areas(requests.size());  // for the ranking's area term
+  for (size_t r = 0; r < requests.size(); ++r) silhouette_areas[r] = SilhouetteAreas(*requests[r].bank);
   std::vector<Detection> solved;
   std::vector<int> wanted(requests.size());
   for (size_t r = 0; r < requests.size(); ++r) wanted[r] = requests[r].count;
@@ -447,7 +449,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
         Normalize(model_total, &model_colour);
         const bool has_colour = model_total > 0.0;
         const bool has_near = requests[r].near_point_m.allFinite();
-        const std::array<double, 3> unit_areas = SilhouetteAreas(bank);
+        const std::array<double, 3>& unit_areas = silhouette_areas[r];
         std::vector<CandidateTrial> trials;
         for (size_t p = first_proposal; p < out.proposals.size(); ++p) {
           const Proposal& proposal = out.proposals[p];

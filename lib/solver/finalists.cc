@@ -115,22 +115,19 @@ void RunFinalistStage(const SolveContext& c, const MhpoTarget& target, std::vect
   StageReport& stages = *c.stages;
   const Stopwatch watch;
   finalists.push_back(Finalist{result->cam_from_object, result->details, stages.answer_hypothesis});
+  const Eigen::Isometry3d first = result->cam_from_object;
   const bool texture_agrees = c.options.silhouette_skip_agreement > 0 && stages.pnp_agreement >= c.options.silhouette_skip_agreement;
   if (c.options.check_flips && !texture_agrees && !c.clock->OutOfTime()) {
-    const Eigen::Isometry3d first = result->cam_from_object;
     for (Finalist& flip : FlippedFinalists(c, target, first)) {
       finalists.push_back(std::move(flip));
       ++stages.flips_checked;
     }
-    if (!c.clock->OutOfTime()) {
-      ResolveFinalists(c.options, c.bank, c.frame, c.observation.mask, c.comparer.symmetries(), c.comparer.points(),
-                       std::move(finalists), result);
-    }
-    stages.flip_answer = !result->cam_from_object.isApprox(first);
-  } else if (!c.clock->OutOfTime()) {
+  }
+  if (!c.clock->OutOfTime()) {
     ResolveFinalists(c.options, c.bank, c.frame, c.observation.mask, c.comparer.symmetries(), c.comparer.points(),
                      std::move(finalists), result);
   }
+  stages.flip_answer = stages.flips_checked > 0 && !result->cam_from_object.isApprox(first);
   stages.finalists_ms = watch.ElapsedMs();
   if (stages.answer_hypothesis >= 0) {
     const int rank = kept[static_cast<size_t>(stages.answer_hypothesis)].set_rank;
