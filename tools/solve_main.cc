@@ -310,10 +310,10 @@ int RunFind(const g6d::Frame& frame, const std::vector<g6d::DetectRequest>& requ
       ++position;
       if (!trial.solved) continue;
       const g6d::Proposal& proposal = report.proposals[static_cast<size_t>(trial.proposal)];
-      std::printf("  #%-3d pass %d region %-4d box %d,%d %dx%d  %6d px  size %.2f colour %.2f rank %.3f  ", position,
-                  trial.pass, trial.proposal, proposal.box.x, proposal.box.y, proposal.box.width, proposal.box.height,
-                  proposal.pixels, trial.size_term, trial.colour_term, trial.rank);
-      if (trial.success) std::printf("S %.4f region IoU %.2f", trial.score, trial.region_iou);
+      std::printf("  #%-3d pass %d region %-4d box %d,%d %dx%d  %6d px  size %.2f area %.2f colour %.2f rank %.3f  ",
+                  position, trial.pass, trial.proposal, proposal.box.x, proposal.box.y, proposal.box.width,
+                  proposal.box.height, proposal.pixels, trial.size_term, trial.area_term, trial.colour_term, trial.rank);
+      if (trial.success) std::printf("S %.4f conf %.2f region IoU %.2f", trial.score, trial.confidence, trial.region_iou);
       std::printf("  %.1f ms  %s\n", trial.ms, TrialVerdict(trial, detections, detect_options).c_str());
     }
     if (ranked > solved) std::printf("  %d more ranked, not solved\n", ranked - solved);
@@ -354,12 +354,14 @@ int RunFind(const g6d::Frame& frame, const std::vector<g6d::DetectRequest>& requ
       for (const g6d::CandidateTrial& trial : report.trials) {
         if (trial.request != static_cast<int>(r)) continue;
         nlohmann::json entry = {{"position", ++position}, {"pass", trial.pass}, {"proposal", trial.proposal},
-                                {"size_term", trial.size_term},
+                                {"size_term", trial.size_term}, {"area_ratio", trial.area_ratio},
+                                {"area_term", trial.area_term}, {"shape_term", trial.shape_term},
                                 {"colour_term", trial.colour_term}, {"rank", trial.rank}, {"solved", trial.solved}};
         if (trial.solved) {
           entry["success"] = trial.success;
           entry["score"] = trial.success ? nlohmann::json(trial.score) : nlohmann::json();
           entry["region_iou"] = trial.region_iou;
+          entry["confidence"] = trial.success ? nlohmann::json(trial.confidence) : nlohmann::json();
           entry["ms"] = trial.ms;
           entry["verdict"] = TrialVerdict(trial, detections, detect_options);
         }
