@@ -330,6 +330,8 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
   solve_options.use_silhouettes = solve_options.use_silhouettes && options.solve_silhouettes;
   solve_options.check_flips = solve_options.check_flips || options.solve_check_flips;
   island_solve_options.check_flips = solve_options.check_flips;
+  solve_options.check_flips_max_score = std::min(solve_options.check_flips_max_score, options.max_score);
+  island_solve_options.check_flips_max_score = solve_options.check_flips_max_score;
   island_solve_options.use_silhouettes = island_solve_options.use_silhouettes && options.island_silhouettes;
   cv::Mat first_region = out.support == 0;
   // Requests that all say where their object is: only the area around their `within` is

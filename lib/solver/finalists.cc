@@ -117,7 +117,8 @@ void RunFinalistStage(const SolveContext& c, const MhpoTarget& target, std::vect
   finalists.push_back(Finalist{result->cam_from_object, result->details, stages.answer_hypothesis});
   const Eigen::Isometry3d first = result->cam_from_object;
   const bool texture_agrees = c.options.silhouette_skip_agreement > 0 && stages.pnp_agreement >= c.options.silhouette_skip_agreement;
-  if (c.options.check_flips && !texture_agrees && !c.clock->OutOfTime()) {
+  if (c.options.check_flips && !texture_agrees && result->details.s <= c.options.check_flips_max_score &&
+      !c.clock->OutOfTime()) {
     for (Finalist& flip : FlippedFinalists(c, target, first)) {
       finalists.push_back(std::move(flip));
       ++stages.flips_checked;

@@ -156,6 +156,9 @@ struct SolverOptions {
   /// confidence). Skipped when `silhouette_skip_agreement` PnP poses agree (the texture
   /// tells the sides apart). Its time is part of the finalists' stage.
   bool check_flips = false;
+  /// ... only for an answer whose S_A is at most this (an answer refused anyway is not worth
+  /// its flips; detection sets its max_score).
+  double check_flips_max_score = 1e9;
   int num_hypotheses = 18;      ///< N_H = K: hypotheses kept after observable selection
   ScoreOptions score;           ///< ω_C = 0.70, λ_S = 10
   GridOptions selection_grid = [] {

@@ -345,7 +345,7 @@ void BindOptions(py::module_& module) {
         G6D_FIELD(unsure_score) G6D_FIELD(unsure_ambiguous_score) G6D_FIELD(explain_neighbours) G6D_FIELD(neighbour_min_fraction) G6D_FIELD(resolve_duplicates)
         G6D_FIELD(mask_refine_rounds) G6D_FIELD(match) G6D_FIELD(pnp) G6D_FIELD(use_ppf) G6D_FIELD(ppf)
         G6D_FIELD(ppf_hypotheses) G6D_FIELD(ppf_skip_agreement) G6D_FIELD(use_silhouettes) G6D_FIELD(silhouette) G6D_FIELD(silhouette_hypotheses)
-        G6D_FIELD(silhouette_skip_agreement) G6D_FIELD(check_flips)
+        G6D_FIELD(silhouette_skip_agreement) G6D_FIELD(check_flips) G6D_FIELD(check_flips_max_score)
         G6D_FIELD(num_hypotheses) G6D_FIELD(score)
         G6D_FIELD(selection_grid) G6D_FIELD(refine_grid) G6D_FIELD(icp) G6D_FIELD(run_icp)
         G6D_FIELD(max_observed_points) G6D_FIELD(max_source_points) G6D_FIELD(icp_coarse_points) G6D_FIELD(icp_merge_fraction)

@@ -217,6 +217,7 @@ class SolverOptions(_Options):
     silhouette_hypotheses: int
     silhouette_skip_agreement: int
     check_flips: bool
+    check_flips_max_score: float
     num_hypotheses: int
     score: ScoreOptions
     selection_grid: GridOptions
