@@ -236,13 +236,15 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
         }
       }
       // Every ranked pair, for an analysis of the ranking: what its region holds.
+      std::vector<cv::Mat> visible_masks(bop_frame.gt.size());
+      for (size_t g = 0; g < bop_frame.gt.size(); ++g) visible_masks[g] = LoadBopMaskVisib(scene, im_id, static_cast<int>(g)) > 0;
       for (size_t t = 0; t < report.trials.size(); ++t) {
         const CandidateTrial& trial = report.trials[t];
         double holds = 0.0;
         int held = -1;
         for (size_t g = 0; g < bop_frame.gt.size(); ++g) {
           if (obj_of_request[static_cast<size_t>(trial.request)] != bop_frame.gt[g].obj_id) continue;
-          const double iou = Iou(pixels[static_cast<size_t>(trial.proposal)], LoadBopMaskVisib(scene, im_id, static_cast<int>(g)) > 0);
+          const double iou = Iou(pixels[static_cast<size_t>(trial.proposal)], visible_masks[g]);
           if (iou > holds) {
             holds = iou;
             held = static_cast<int>(g);

@@ -76,14 +76,7 @@ namespace {
 // refined by ICP and MHPO on `target` (SolverOptions::check_flips).
 std::vector<Finalist> FlippedFinalists(const SolveContext& c, const MhpoTarget& target, const Eigen::Isometry3d& answer) {
   const SolverOptions& options = c.options;
-  const Eigen::Vector3d centre = c.bank.bounding_box.center();
-  std::vector<Eigen::Isometry3d> flips;
-  for (int axis = 0; axis < 3; ++axis) {
-    Eigen::Isometry3d flip = Eigen::Isometry3d::Identity();
-    flip.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::Unit(axis)).toRotationMatrix();
-    flip.translation() = centre - flip.linear() * centre;
-    flips.push_back(answer * flip);
-  }
+  std::vector<Eigen::Isometry3d> flips = BoxFlips(answer, c.bank);
   c.executor->ParallelFor(static_cast<int>(flips.size()), [&](int k) {
     RasterImage scratch;
     if (options.run_icp) {

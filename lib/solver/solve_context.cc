@@ -102,6 +102,18 @@ MeshSymmetries ShapeSymmetries(const TemplateBank& bank) {
   return symmetries;
 }
 
+std::vector<Eigen::Isometry3d> BoxFlips(const Eigen::Isometry3d& cam_from_object, const TemplateBank& bank) {
+  const Eigen::Vector3d centre = bank.bounding_box.center();
+  std::vector<Eigen::Isometry3d> flips;
+  for (int axis = 0; axis < 3; ++axis) {
+    Eigen::Isometry3d flip = Eigen::Isometry3d::Identity();
+    flip.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::Unit(axis)).toRotationMatrix();
+    flip.translation() = centre - flip.linear() * centre;  // about the box centre
+    flips.push_back(cam_from_object * flip);
+  }
+  return flips;
+}
+
 MeshSymmetries AnswerSymmetries(const TemplateBank& bank) {
   if (bank.appearance.Empty()) return ShapeSymmetries(bank);
   MeshSymmetries symmetries;

@@ -53,6 +53,10 @@ MeshSymmetries ShapeSymmetries(const TemplateBank& bank);
 /// appearance can choose between them.
 MeshSymmetries AnswerSymmetries(const TemplateBank& bank);
 
+/// `cam_from_object` turned 180 degrees about each of the bounding box's three axes through
+/// its centre (x, y, z): the usual confusions of a near-symmetric shape seen from one side.
+std::vector<Eigen::Isometry3d> BoxFlips(const Eigen::Isometry3d& cam_from_object, const TemplateBank& bank);
+
 /// Up to `count` vertices of the online mesh (even stride): the points of pose distances.
 std::vector<Eigen::Vector3d> DistancePoints(const Mesh& mesh, size_t count);
 

@@ -23,12 +23,7 @@ std::vector<Eigen::Isometry3d> PostRefineHypotheses(const Eigen::Isometry3d& cam
                                                     const Camera& camera, const cv::Rect& box, double z_m) {
   const Eigen::Vector3d centre = bank.bounding_box.center();
   std::vector<Eigen::Isometry3d> poses = {cam_from_object};
-  for (int axis = 0; axis < 3; ++axis) {
-    Eigen::Isometry3d flip = Eigen::Isometry3d::Identity();
-    flip.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::Unit(axis)).toRotationMatrix();
-    flip.translation() = centre - flip.linear() * centre;  // about the box centre
-    poses.push_back(cam_from_object * flip);
-  }
+  for (const Eigen::Isometry3d& flip : BoxFlips(cam_from_object, bank)) poses.push_back(flip);
   const Eigen::Vector2d box_centre(box.x + 0.5 * box.width, box.y + 0.5 * box.height);
   const Eigen::Vector3d target_centre = camera.Backproject(box_centre, z_m + 0.25 * bank.diameter_m);
   const size_t n = poses.size();
