@@ -352,6 +352,10 @@ int main(int argc, char** argv) {
   app.add_option("--detect-max-union", detect_options.max_union_segments,
                  "--masks none: neighbouring depth segments joined into one candidate region, at most")
       ->capture_default_str();
+  app.add_option("--detect-identity-check", detect_options.identity_check_below,
+                 "--masks none: an answer less confident than this is solved as each other object asked for on its "
+                 "region, and gives way to one that explains it with a higher confidence; 0 = off")
+      ->capture_default_str();
   app.add_option("--detect-area-weight", detect_options.area_weight,
                  "--masks none: weight of the region's area against the object's silhouettes in the size agreement "
                  "of the ranking (0 = the 3D extent only)")

@@ -152,12 +152,14 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
     times["shape"].push_back(report.shape_ms);
     times["solve"].push_back(report.solve_ms);
     times["select"].push_back(report.select_ms);
+    times["identity"].push_back(report.identity_ms);
     for (const StageTime& time : report.solve_stages) solve_times[time.name].push_back(time.ms);
     solve_times["frame check"].push_back(report.check_ms);
     ++done;
-    std::fprintf(stderr, "[%d] scene %d im %d: %s, %.0f ms (support %.0f, segment %.0f, propose %.0f, ppf %.0f (%d regions), rank %.0f (shape %.0f), solve %.0f)\n",
+    std::fprintf(stderr, "[%d] scene %d im %d: %s, %.0f ms (support %.0f, segment %.0f, propose %.0f, ppf %.0f (%d regions), rank %.0f (shape %.0f), solve %.0f, identity %.0f: %d checked, %d dropped, %d replaced)\n",
                  done, scene_id, im_id, report.message.c_str(), ms, report.support_ms, report.segment_ms,
-                 report.propose_ms, report.ppf_ms, report.ppf_regions, report.rank_ms, report.shape_ms, report.solve_ms);
+                 report.propose_ms, report.ppf_ms, report.ppf_regions, report.rank_ms, report.shape_ms, report.solve_ms,
+                 report.identity_ms, report.identity_checked, report.identity_dropped, report.identity_replaced);
     for (const Detection& detection : detections) {
       const int obj_id = obj_of_request[static_cast<size_t>(detection.request)];
       const BenchObject& object = objects.at(obj_id);
@@ -386,7 +388,7 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
               Percentile(image_ms, 0.5), Percentile(image_ms, 0.95), MeanOf(image_ms), Percentile(solves, 0.5),
               Percentile(regions, 0.5));
   std::printf("| stage | p50 | p95 |\n|---|---|---|\n");
-  for (const char* stage : {"support", "segment", "propose", "ppf", "rank", "shape", "solve", "select"}) {
+  for (const char* stage : {"support", "segment", "propose", "ppf", "rank", "shape", "solve", "select", "identity"}) {
     std::printf("| %s | %.1f | %.1f |\n", stage, Percentile(times[stage], 0.5), Percentile(times[stage], 0.95));
   }
   // Inside the solve stage: each solve's stages summed over the image's solves (they run

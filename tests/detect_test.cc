@@ -407,6 +407,42 @@ TEST_F(DetectTest, AnObjectThatIsNotThereGetsNoAnswer) {
   }
 }
 
+TEST_F(DetectTest, AnAnswerGivesWayToAnObjectThatExplainsItsRegionBetter) {
+  // Only the box stands on the table; the bar is asked for too, and without the
+  // confidence's floor its best guess is answered, on the box.
+  const Scene scene = RenderScene({&Box()}, {OnTable(Box(), 0.0, 0.3)}, 11);
+  ThreadPool pool(2);
+  const std::vector<DetectRequest> requests = {{&Box().bank, 1}, {&Bar().bank, 1}};
+  DetectOptions options;
+  options.max_overlap = 1.0;
+  options.min_confidence = 0.0;
+  options.max_score = 1e9;
+  options.identity_check_below = 0.0;
+  DetectionReport report;
+  std::vector<Detection> detections = DetectObjects(scene.frame, requests, QuickSolver(), options, &pool, &report);
+  ASSERT_EQ(detections.size(), 2u) << report.message;
+  EXPECT_EQ(report.identity_checked, 0);
+  // Checked, the bar's region is better explained by the box: the guess gives way, and
+  // the box, which has its one instance already, takes nothing more.
+  options.identity_check_below = 1.0;
+  detections = DetectObjects(scene.frame, requests, QuickSolver(), options, &pool, &report);
+  EXPECT_EQ(report.identity_checked, 2) << report.message;
+  EXPECT_GE(report.identity_solves, 1);
+  EXPECT_EQ(report.identity_dropped, 1);
+  EXPECT_EQ(report.identity_replaced, 0);
+  ASSERT_EQ(detections.size(), 1u) << report.message;
+  EXPECT_EQ(detections[0].object_id, Box().id);
+  EXPECT_LT(AddOf(detections[0], Box(), scene.poses[0]), 0.1 * Box().bank.diameter_m);
+  // Asked for two boxes, the box's answer on the bar's region takes the guess's place.
+  detections = DetectObjects(scene.frame, {{&Box().bank, 2}, {&Bar().bank, 1}}, QuickSolver(), options, &pool, &report);
+  EXPECT_EQ(report.identity_dropped, 1) << report.message;
+  EXPECT_EQ(report.identity_replaced, 1);
+  for (const Detection& detection : detections) {
+    EXPECT_EQ(detection.object_id, Box().id);
+    EXPECT_LT(AddOf(detection, Box(), scene.poses[0]), 0.1 * Box().bank.diameter_m);
+  }
+}
+
 TEST_F(DetectTest, OnlyObjectsAlreadyFoundGetTheFurtherPasses) {
   // One box on the table; two boxes and a bar asked for. The box is found and wants one
   // more: it gets the found-object passes. The bar is not there: no pass after the
@@ -590,6 +626,9 @@ TEST(DetectOptions, CheckNamesTheBadField) {
   options = DetectOptions();
   options.solve_pnp_min_quality = 1.5;
   EXPECT_NE(options.Check().find("solve_pnp_min_quality"), std::string::npos);
+  options = DetectOptions();
+  options.identity_check_below = -0.1;
+  EXPECT_NE(options.Check().find("identity_check_below"), std::string::npos);
 }
 
 TEST(DetectionConfidence, RisesWithWhatTheFrameConfirmsAndFallsWithS) {

@@ -219,11 +219,12 @@ TEST(ParseServiceOptionsYaml, ReadsTheDetectionKeysAndCheckNamesABadOne) {
   ParseServiceOptionsYaml(
       "detect: {extra_candidates: 3, colour_weight: 0.25, max_score: 0.3, explain_away_passes: 0, "
       "max_planes: 2, support_extent_factor: 2.0, min_confidence: 0.5, rank_uncoloured_by_shape: false, "
-      "raised_sigmas: 4.0, raised_outline_edge: 0, island_open_px: -1, area_weight: 0.5, solve_check_flips: true}\n"
+      "raised_sigmas: 4.0, raised_outline_edge: 0, island_open_px: -1, area_weight: 0.5, solve_check_flips: true, identity_check_below: 0.7}\n"
       "solver: {check_flips: true}\n",
       "detect.yaml", &options);
   EXPECT_EQ(options.detect.extra_candidates, 3);
   EXPECT_EQ(options.detect.area_weight, 0.5);
+  EXPECT_EQ(options.detect.identity_check_below, 0.7);
   EXPECT_TRUE(options.detect.solve_check_flips);
   EXPECT_TRUE(options.solver.check_flips);
   EXPECT_EQ(options.detect.colour_weight, 0.25);
@@ -241,6 +242,8 @@ TEST(ParseServiceOptionsYaml, ReadsTheDetectionKeysAndCheckNamesABadOne) {
   EXPECT_THAT(options.Check(), testing::HasSubstr("extra_candidates"));
   ParseServiceOptionsYaml("detect: {extra_candidates: 2, area_weight: 1.5}\n", "detect.yaml", &options);
   EXPECT_THAT(options.Check(), testing::HasSubstr("area_weight"));
+  ParseServiceOptionsYaml("detect: {area_weight: 1, identity_check_below: 2}\n", "detect.yaml", &options);
+  EXPECT_THAT(options.Check(), testing::HasSubstr("identity_check_below"));
   EXPECT_THROW(ParseServiceOptionsYaml("detect: {candidates: 3}\n", "detect.yaml", &options), Error);
 }
 

@@ -255,6 +255,107 @@ std::array<double, 3> SilhouetteAreas(const TemplateBank& bank) {
   return {at(0.1), at(0.5), at(0.9)};
 }
 
+// The answers less sure than options.identity_check_below, each solved again on its own
+// region as every other object that region was ranked for (an object whose extent or area
+// rules the region out is no explanation of it). An answer is dropped when another object
+// explains its region with a higher confidence (at least min_confidence); that object's
+// answer takes its place when the object still wants instances and the pixels are free.
+void CheckIdentities(const Frame& frame, const std::vector<DetectRequest>& requests, const DetectOptions& options,
+                     const SolverOptions& solve_options, const SolverOptions& island_solve_options,
+                     Executor* executor, DetectionReport* out, std::vector<Detection>* detections) {
+  struct Check {
+    size_t detection;
+    size_t request;
+    size_t trial;  // the other object's ranked pair with the answer's region (its colour term)
+  };
+  std::vector<Check> checks;
+  for (size_t d = 0; d < detections->size(); ++d) {
+    const Detection& detection = (*detections)[d];
+    if (detection.result.confidence >= options.identity_check_below) continue;
+    ++out->identity_checked;
+    const size_t own = static_cast<size_t>(detection.request);
+    for (size_t t = 0; t < out->trials.size(); ++t) {
+      const CandidateTrial& trial = out->trials[t];
+      const size_t r = static_cast<size_t>(trial.request);
+      if (trial.proposal != detection.proposal || r == own || requests[r].bank == requests[own].bank) continue;
+      bool again = false;
+      for (const Check& check : checks) again = again || (check.detection == d && check.request == r);
+      if (!again) checks.push_back({d, r, t});
+    }
+  }
+  std::vector<Detection> others(checks.size());
+  executor->ParallelFor(static_cast<int>(checks.size()), [&](int i) {
+    const Check& check = checks[static_cast<size_t>(i)];
+    const Detection& detection = (*detections)[check.detection];
+    const Proposal& proposal = out->proposals[static_cast<size_t>(detection.proposal)];
+    const bool island = !proposal.mask.empty() && proposal.ppf_request < 0;
+    const TemplateBank& bank = *requests[check.request].bank;
+    Detection& other = others[static_cast<size_t>(i)];
+    other.request = static_cast<int>(check.request);
+    other.object_id = bank.object_id;
+    other.proposal = detection.proposal;
+    other.region = detection.region;
+    other.result = EstimatePoseOnMask(frame, {bank.object_id, detection.region}, bank,
+                                      island ? island_solve_options : solve_options, executor);
+    if (!other.result.success || other.result.score > options.max_score) {
+      other.result.confidence = 0.0;
+      return;
+    }
+    other.check = CheckAgainstFrame(frame, bank, other.result.cam_from_object,
+                                    options.free_space_fraction * bank.diameter_m, options.ppf_contour_step_m);
+    const double iou = other.result.corrected_mask.empty()
+                           ? 0.0
+                           : MaskIntersectionOverUnion(other.result.corrected_mask, detection.region);
+    other.result.confidence =
+        DetectionConfidence(options, other.result, other.check, iou, out->trials[check.trial].colour_term);
+  });
+  out->identity_solves = static_cast<int>(checks.size());
+  // Per answer, the best other explanation of its region, when better than the answer.
+  std::vector<int> better(detections->size(), -1);
+  for (size_t i = 0; i < checks.size(); ++i) {
+    const size_t d = checks[i].detection;
+    const double confidence = others[i].result.confidence;
+    const double to_beat = better[d] >= 0 ? others[static_cast<size_t>(better[d])].result.confidence
+                                          : (*detections)[d].result.confidence;
+    if (confidence >= options.min_confidence && confidence > to_beat) better[d] = static_cast<int>(i);
+  }
+  std::vector<Detection> kept;
+  std::vector<int> answered(requests.size(), 0);
+  cv::Mat taken = cv::Mat::zeros(frame.depth.size(), CV_8U);
+  std::vector<size_t> replacements;
+  for (size_t d = 0; d < detections->size(); ++d) {
+    if (better[d] >= 0) {
+      ++out->identity_dropped;
+      replacements.push_back(static_cast<size_t>(better[d]));
+      continue;
+    }
+    Detection& detection = (*detections)[d];
+    ++answered[static_cast<size_t>(detection.request)];
+    taken |= detection.result.corrected_mask.empty() ? detection.region : detection.result.corrected_mask;
+    kept.push_back(std::move(detection));
+  }
+  std::stable_sort(replacements.begin(), replacements.end(), [&](size_t a, size_t b) {
+    return others[a].result.confidence > others[b].result.confidence;
+  });
+  for (size_t i : replacements) {
+    Detection& other = others[i];
+    const size_t r = static_cast<size_t>(other.request);
+    const cv::Mat& mask = other.result.corrected_mask.empty() ? other.region : other.result.corrected_mask;
+    const int pixels = cv::countNonZero(mask);
+    const bool explains_frame =
+        other.check.free_space <= options.max_free_space && other.check.contour_support >= options.min_contour_support;
+    if (answered[r] >= requests[r].count || pixels == 0 || !explains_frame ||
+        cv::countNonZero(mask & taken) > options.max_overlap * pixels) {
+      continue;
+    }
+    ++answered[r];
+    ++out->identity_replaced;
+    taken |= mask;
+    kept.push_back(std::move(other));
+  }
+  *detections = std::move(kept);
+}
+
 }  // namespace
 
 double DetectionConfidence(const DetectOptions& options, const PoseResult& result, const FrameCheck& check,
@@ -672,6 +773,10 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
       missing = missing || wanted[r] > 0;
     }
     if (!missing || detections.empty()) break;  // all found, or nothing to explain away
+  }
+  if (options.identity_check_below > 0.0 && requests.size() > 1) {
+    const ScopedTimer timer(&out.identity_ms);
+    CheckIdentities(frame, requests, options, solve_options, island_solve_options, executor, &out, &detections);
   }
   out.segmentation = out.passes.front().segmentation;
   out.answers = static_cast<int>(detections.size());

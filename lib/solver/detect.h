@@ -121,6 +121,12 @@ struct DetectionReport {
   int solves = 0;                   ///< EstimatePoseOnMask calls
   int answers = 0;                  ///< detections returned
   int suppressed = 0;               ///< solved answers dropped by S_A, the overlap or the count
+  /// Unsure answers re-solved as the other objects asked for (DetectOptions::
+  /// identity_check_below), the solves that took, and the answers another object explained
+  /// better (dropped), and the better explanations answered in their place (their object
+  /// still wanted instances).
+  int identity_checked = 0, identity_solves = 0, identity_dropped = 0, identity_replaced = 0;
+  double identity_ms = 0.0;
   int ppf_regions = 0;              ///< regions from the point-pair-feature vote
   double shape_ms = 0.0;            ///< the shape term's vote (part of rank_ms)
   /// Inside solve_ms: the solves' stage times (StageTimes names: prepare ... mask_refine,

@@ -53,6 +53,7 @@ std::string DetectOptions::Check() const {
   else if (!(ppf_surface_fraction > 0.0 && ppf_surface_fraction < 1.0)) out << "DetectOptions.ppf_surface_fraction must be in (0, 1) (got " << ppf_surface_fraction << ")";
   else if (!(ppf_min_contour_support >= 0.0 && ppf_min_contour_support <= 1.0)) out << "DetectOptions.ppf_min_contour_support must be in [0, 1] (got " << ppf_min_contour_support << ")";
   else if (!(max_free_space >= 0.0 && max_free_space <= 1.0)) out << "DetectOptions.max_free_space must be in [0, 1] (got " << max_free_space << ")";
+  else if (!(identity_check_below >= 0.0 && identity_check_below <= 1.0)) out << "DetectOptions.identity_check_below must be in [0, 1] (got " << identity_check_below << ")";
   else if (!(free_space_fraction > 0.0)) out << "DetectOptions.free_space_fraction must be > 0 (got " << free_space_fraction << ")";
   else if (!(min_contour_support >= 0.0 && min_contour_support <= 1.0)) out << "DetectOptions.min_contour_support must be in [0, 1] (got " << min_contour_support << ")";
   else if (shape_references < 1) out << "DetectOptions.shape_references must be >= 1 (got " << shape_references << ")";

@@ -316,6 +316,7 @@ class DetectOptions(_Options):
     solve_silhouettes: bool
     solve_check_flips: bool
     area_weight: float
+    identity_check_below: float
     max_score: float
     max_overlap: float
     ppf_extra: int
