@@ -2,12 +2,14 @@
 #include "solver/icp.h"
 
 #include <iostream>
+#include <limits>
 #include <random>
 
 #include <gtest/gtest.h>
 
 #include "core/error.h"
 #include "core/se3.h"
+#include "solver/point_tree.h"
 
 namespace g6d {
 namespace {
@@ -38,6 +40,69 @@ TEST(AlignRigid, RecoversAKnownTransform) {
   const Eigen::Isometry3d estimate = AlignRigid(source, target);
   EXPECT_LT(RotationErrorDeg(estimate.linear(), truth.linear()), 1e-6);
   EXPECT_LT(TranslationError(estimate, truth), 1e-9);
+}
+
+// The k-d tree against an exhaustive search: the same nearest point (distance and index)
+// for every query, with and without a bound and a hint, on clustered points with duplicate
+// coordinates along each axis (the splits' ties) and on clouds smaller than a leaf.
+TEST(PointTree, FindsTheSameNearestPointAsAnExhaustiveSearch) {
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> spread(0.0, 0.02);
+  std::uniform_int_distribution<int> grid(-20, 20);
+  for (const int count : {0, 1, 7, 9, 300, 5000}) {
+    std::vector<Eigen::Vector3d> points;
+    for (int i = 0; i < count; ++i) {
+      // Half on a 1 mm grid (many equal coordinates), half in a Gaussian blob.
+      if (i % 2 == 0) points.emplace_back(grid(rng) * 1e-3, grid(rng) * 1e-3, 0.8 + grid(rng) * 1e-3);
+      else points.emplace_back(spread(rng), spread(rng), 0.8 + spread(rng));
+    }
+    const PointTree tree(points);
+    ASSERT_EQ(tree.size(), count);
+    for (int q = 0; q < 400; ++q) {
+      const Eigen::Vector3d query(1.5 * spread(rng), 1.5 * spread(rng), 0.8 + 1.5 * spread(rng));
+      double exhaustive = std::numeric_limits<double>::infinity();
+      for (const Eigen::Vector3d& p : points) exhaustive = std::min(exhaustive, (p - query).squaredNorm());
+      const double bound = q % 3 == 0 ? std::numeric_limits<double>::infinity() : (q % 3 == 1 ? 1e-4 : 4e-4);
+      const int hint = count > 0 && q % 2 == 0 ? static_cast<int>(rng() % static_cast<uint64_t>(count)) : -1;
+      double squared = -1.0;
+      const int found = tree.Nearest(query, bound, hint, &squared);
+      if (exhaustive < bound) {
+        ASSERT_GE(found, 0) << "count " << count << " query " << q;
+        EXPECT_DOUBLE_EQ((points[static_cast<size_t>(found)] - query).squaredNorm(), exhaustive);
+        EXPECT_DOUBLE_EQ(squared, exhaustive);
+      } else {
+        EXPECT_EQ(found, -1) << "count " << count << " query " << q << ": nothing within the bound";
+        EXPECT_EQ(squared, bound);
+      }
+    }
+  }
+}
+
+// PointCloudIndex's bounded query: -1 and +infinity beyond the bound, hints only speed it.
+TEST(PointCloudIndex, BoundedQueriesWithHintsAgreeWithUnboundedOnes) {
+  std::mt19937_64 rng(8);
+  const auto cloud = MakeObjectPoints(&rng, 3000);
+  const PointCloudIndex index(cloud);
+  std::vector<Eigen::Vector3d> queries = MakeObjectPoints(&rng, 500);
+  for (Eigen::Vector3d& q : queries) q += Eigen::Vector3d(0.0, 0.0, 0.004);
+  std::vector<int> plain, bounded(queries.size(), 7);  // 7: a (wrong) hint for every query
+  std::vector<double> plain_squared, bounded_squared;
+  index.NearestAll(queries, &plain, &plain_squared);
+  const double bound = 0.005 * 0.005;
+  index.NearestAll(queries, bound, true, &bounded, &bounded_squared);
+  int beyond = 0;
+  for (size_t i = 0; i < queries.size(); ++i) {
+    ASSERT_GE(plain[i], 0);
+    if (plain_squared[i] < bound) {
+      EXPECT_EQ(bounded_squared[i], plain_squared[i]);
+    } else {
+      ++beyond;
+      EXPECT_EQ(bounded[i], -1);
+      EXPECT_EQ(bounded_squared[i], std::numeric_limits<double>::infinity());
+    }
+  }
+  EXPECT_GT(beyond, 0);  // the shift takes some queries past the bound
+  EXPECT_LT(beyond, static_cast<int>(queries.size()));
 }
 
 TEST(RefineByTrimmedIcp, ConvergesFrom10DegAnd20mm) {

@@ -9,23 +9,18 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
-#include <open3d/geometry/KDTreeFlann.h>
-
 #include "core/error.h"
+#include "solver/point_tree.h"
 
 namespace g6d {
 
 struct PointCloudIndex::Impl {
-  Eigen::MatrixXd data;  // 3 x N, referenced by the tree
-  open3d::geometry::KDTreeFlann tree;
+  explicit Impl(const std::vector<Eigen::Vector3d>& points) : tree(points) {}
+  PointTree tree;
 };
 
 PointCloudIndex::PointCloudIndex(std::vector<Eigen::Vector3d> points)
-    : points_(std::move(points)), impl_(std::make_unique<Impl>()) {
-  impl_->data.resize(3, static_cast<Eigen::Index>(points_.size()));
-  for (size_t i = 0; i < points_.size(); ++i) impl_->data.col(static_cast<Eigen::Index>(i)) = points_[i];
-  if (!points_.empty()) impl_->tree.SetMatrixData(impl_->data);
-}
+    : points_(std::move(points)), impl_(std::make_unique<Impl>(points_)) {}
 
 PointCloudIndex::PointCloudIndex(std::vector<Eigen::Vector3d> points, std::vector<Eigen::Vector3d> normals)
     : PointCloudIndex(std::move(points)) {
@@ -47,17 +42,23 @@ int PointCloudIndex::Nearest(const Eigen::Vector3d& query, double* squared_dista
 
 void PointCloudIndex::NearestAll(const std::vector<Eigen::Vector3d>& queries, std::vector<int>* indices,
                                  std::vector<double>* squared_distances) const {
-  indices->assign(queries.size(), -1);
-  squared_distances->assign(queries.size(), 0.0);
-  if (points_.empty()) return;
-  // Open3D's KNN search fills vectors; reuse one pair for all queries instead of two heap
-  // allocations per query.
-  std::vector<int> one_index(1);
-  std::vector<double> one_distance(1);
+  NearestAll(queries, std::numeric_limits<double>::infinity(), false, indices, squared_distances);
+  // Empty index: -1 and 0 (the unbounded query's contract).
   for (size_t i = 0; i < queries.size(); ++i) {
-    if (impl_->tree.SearchKNN(queries[i], 1, one_index, one_distance) < 1) continue;
-    (*indices)[i] = one_index[0];
-    (*squared_distances)[i] = one_distance[0];
+    if ((*indices)[i] < 0) (*squared_distances)[i] = 0.0;
+  }
+}
+
+void PointCloudIndex::NearestAll(const std::vector<Eigen::Vector3d>& queries, double max_squared_distance,
+                                 bool use_hints, std::vector<int>* indices,
+                                 std::vector<double>* squared_distances) const {
+  if (!use_hints || indices->size() != queries.size()) indices->assign(queries.size(), -1);
+  squared_distances->resize(queries.size());
+  for (size_t i = 0; i < queries.size(); ++i) {
+    double squared = 0.0;
+    const int found = impl_->tree.Nearest(queries[i], max_squared_distance, (*indices)[i], &squared);
+    (*indices)[i] = found;
+    (*squared_distances)[i] = found < 0 ? std::numeric_limits<double>::infinity() : squared;
   }
 }
 
@@ -162,7 +163,7 @@ void RefineByTrimmedIcp(const IcpOptions& options, const std::vector<Eigen::Vect
   const size_t n = source_in_object.size();
   Eigen::Isometry3d pose = *cam_from_object;
   std::vector<Eigen::Vector3d> moved(n);
-  std::vector<int> nearest(n);
+  std::vector<int> nearest(n, -1);
   std::vector<double> squared(n);
   std::vector<size_t> order(n);
   std::vector<Eigen::Vector3d> kept_source, kept_target, kept_normal;
@@ -172,7 +173,9 @@ void RefineByTrimmedIcp(const IcpOptions& options, const std::vector<Eigen::Vect
   const bool use_plane = source_planes || (options.point_to_plane && target.normals().size() == target.points().size());
   for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
     for (size_t i = 0; i < n; ++i) moved[i] = pose * source_in_object[i];
-    target.NearestAll(moved, &nearest, &squared);
+    // Only pairs nearer than r_max are ever kept, so the search stops there (the others
+    // get +infinity and sort last); each point's previous match is its first guess.
+    target.NearestAll(moved, r_max_squared, iteration > 0, &nearest, &squared);
     std::iota(order.begin(), order.end(), size_t{0});
     // Trimming: the closest ρ fraction, then the r_max cutoff. Stable on ties so the
     // result does not depend on anything but the data.

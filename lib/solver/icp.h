@@ -3,8 +3,9 @@
 /// Trimmed point-to-point ICP (paper Sec. III-D): rendered visible model points are
 /// aligned to the observed points inside the mask; per iteration only the closest
 /// fraction ρ of correspondences with residuals below r_max = max(r_0, κ_d · diameter)
-/// enters the rigid (Kabsch) update. The KD-tree over the observed points is Open3D's;
-/// its headers stay inside icp.cc.
+/// enters the rigid (Kabsch) update. The k-d tree over the observed points is
+/// solver/point_tree.h (three dimensions, bounded and warm-started queries; why not
+/// Open3D's there).
 
 #include <memory>
 #include <string>
@@ -15,7 +16,7 @@
 
 namespace g6d {
 
-/// Nearest-neighbour index over a fixed 3D point set (Open3D KDTreeFlann inside).
+/// Nearest-neighbour index over a fixed 3D point set (a PointTree inside).
 /// Built once per instance; const queries are thread-safe.
 class PointCloudIndex {
  public:
@@ -35,6 +36,12 @@ class PointCloudIndex {
   /// Nearest() for every query (one result buffer for all; the ICP inner loop).
   void NearestAll(const std::vector<Eigen::Vector3d>& queries, std::vector<int>* indices,
                   std::vector<double>* squared_distances) const;
+  /// The same, but only neighbours nearer than sqrt(`max_squared_distance`): a query with
+  /// none gets index -1 and squared distance +infinity. With `use_hints`, `*indices` holds
+  /// a guess per query on entry (e.g. its match in the previous ICP iteration; -1 = none),
+  /// which only speeds the search: the result is the exact nearest point either way.
+  void NearestAll(const std::vector<Eigen::Vector3d>& queries, double max_squared_distance, bool use_hints,
+                  std::vector<int>* indices, std::vector<double>* squared_distances) const;
 
  private:
   struct Impl;
