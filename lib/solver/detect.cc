@@ -203,9 +203,46 @@ void ShapeTerms(const Frame& frame, const TemplateBank& bank, const cv::Mat& reg
   for (CandidateTrial& trial : *trials) trial.shape_term = best_region > 0.0 ? trial.shape_term / best_region : 0.0;
 }
 
-// The answers kept among `solved`: by S_A, best first, each at most max_score, each object's
-// count respected, and each sharing at most max_overlap of its pixels (corrected mask) with
-// the answers kept before it. *suppressed counts the others.
+// What answers may claim as they are admitted one after the other: each object's count of
+// instances, and the frame's pixels (an answer sharing more than max_overlap of its own with
+// those admitted before is refused). The selection and the identity check's replacements
+// admit answers by the same tests.
+class AnswerSlots {
+ public:
+  AnswerSlots(const Frame& frame, const std::vector<DetectRequest>& requests, const DetectOptions& options)
+      : requests_(requests), options_(options), answered_(requests.size(), 0),
+        taken_(cv::Mat::zeros(frame.depth.size(), CV_8U)) {}
+
+  // The pixels an answer claims: its corrected mask, or its region without one.
+  static const cv::Mat& Pixels(const Detection& detection) {
+    return detection.result.corrected_mask.empty() ? detection.region : detection.result.corrected_mask;
+  }
+  // Its object still wants an instance, it claims pixels, few of them taken, and it explains
+  // the frame around it (DetectOptions::max_free_space, min_contour_support).
+  bool Admits(const Detection& detection) const {
+    const size_t r = static_cast<size_t>(detection.request);
+    const cv::Mat& mask = Pixels(detection);
+    const int pixels = cv::countNonZero(mask);
+    const bool explains_frame = detection.check.free_space <= options_.max_free_space &&
+                                detection.check.contour_support >= options_.min_contour_support;
+    return answered_[r] < requests_[r].count && pixels > 0 && explains_frame &&
+           cv::countNonZero(mask & taken_) <= options_.max_overlap * pixels;
+  }
+  void Take(const Detection& detection) {
+    ++answered_[static_cast<size_t>(detection.request)];
+    taken_ |= Pixels(detection);
+  }
+
+ private:
+  const std::vector<DetectRequest>& requests_;
+  const DetectOptions& options_;
+  std::vector<int> answered_;
+  cv::Mat taken_;
+};
+
+// The answers kept among `solved`: by S_A, best first, each at most max_score and at least
+// min_confidence, and admitted by AnswerSlots (counts, overlap, the frame check).
+// *suppressed counts the others.
 std::vector<Detection> SelectAnswers(const Frame& frame, const std::vector<DetectRequest>& requests,
                                      const DetectOptions& options, const std::vector<Detection>& solved,
                                      int* suppressed) {
@@ -213,26 +250,17 @@ std::vector<Detection> SelectAnswers(const Frame& frame, const std::vector<Detec
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(),
                    [&](size_t a, size_t b) { return solved[a].result.score < solved[b].result.score; });
-  cv::Mat taken = cv::Mat::zeros(frame.depth.size(), CV_8U);
-  std::vector<int> answered(requests.size(), 0);
+  AnswerSlots slots(frame, requests, options);
   std::vector<Detection> kept;
   *suppressed = 0;
   for (size_t i : order) {
     const Detection& detection = solved[i];
-    const cv::Mat& mask = detection.result.corrected_mask.empty() ? detection.region : detection.result.corrected_mask;
-    const int pixels = cv::countNonZero(mask);
-    const int overlap = pixels > 0 ? cv::countNonZero(mask & taken) : 0;
-    const size_t r = static_cast<size_t>(detection.request);
-    const bool explains_frame = detection.check.free_space <= options.max_free_space &&
-                                detection.check.contour_support >= options.min_contour_support;
     if (detection.result.score > options.max_score || detection.result.confidence < options.min_confidence ||
-        answered[r] >= requests[r].count || pixels == 0 ||
-        overlap > options.max_overlap * pixels || !explains_frame) {
+        !slots.Admits(detection)) {
       ++*suppressed;
       continue;
     }
-    ++answered[r];
-    taken |= mask;
+    slots.Take(detection);
     kept.push_back(detection);
   }
   return kept;
@@ -320,8 +348,7 @@ void CheckIdentities(const Frame& frame, const std::vector<DetectRequest>& reque
     if (confidence >= options.min_confidence && confidence > to_beat) better[d] = static_cast<int>(i);
   }
   std::vector<Detection> kept;
-  std::vector<int> answered(requests.size(), 0);
-  cv::Mat taken = cv::Mat::zeros(frame.depth.size(), CV_8U);
+  AnswerSlots slots(frame, requests, options);
   std::vector<size_t> replacements;
   for (size_t d = 0; d < detections->size(); ++d) {
     if (better[d] >= 0) {
@@ -330,8 +357,7 @@ void CheckIdentities(const Frame& frame, const std::vector<DetectRequest>& reque
       continue;
     }
     Detection& detection = (*detections)[d];
-    ++answered[static_cast<size_t>(detection.request)];
-    taken |= detection.result.corrected_mask.empty() ? detection.region : detection.result.corrected_mask;
+    slots.Take(detection);  // selected already
     kept.push_back(std::move(detection));
   }
   std::stable_sort(replacements.begin(), replacements.end(), [&](size_t a, size_t b) {
@@ -339,18 +365,9 @@ void CheckIdentities(const Frame& frame, const std::vector<DetectRequest>& reque
   });
   for (size_t i : replacements) {
     Detection& other = others[i];
-    const size_t r = static_cast<size_t>(other.request);
-    const cv::Mat& mask = other.result.corrected_mask.empty() ? other.region : other.result.corrected_mask;
-    const int pixels = cv::countNonZero(mask);
-    const bool explains_frame =
-        other.check.free_space <= options.max_free_space && other.check.contour_support >= options.min_contour_support;
-    if (answered[r] >= requests[r].count || pixels == 0 || !explains_frame ||
-        cv::countNonZero(mask & taken) > options.max_overlap * pixels) {
-      continue;
-    }
-    ++answered[r];
+    if (!slots.Admits(other)) continue;
     ++out->identity_replaced;
-    taken |= mask;
+    slots.Take(other);
     kept.push_back(std::move(other));
   }
   *detections = std::move(kept);
