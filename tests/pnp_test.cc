@@ -5,6 +5,8 @@
 #include <random>
 
 #include <gtest/gtest.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
 
 #include "core/se3.h"
 #include "test_meshes.h"
@@ -129,6 +131,63 @@ TEST(EstimatePnp, BadOptionsNameTheField) {
   EstimatePnp(options, data.set, kCamera, 80.0, MakePrior(data), &result);
   EXPECT_FALSE(result.success);
   EXPECT_NE(result.message.find("confidence"), std::string::npos) << result.message;
+}
+
+// The own Levenberg-Marquardt reaches the least-squares pose that OpenCV's
+// solvePnPRefineLM reaches (same cost, same pose to a micrometre and a microradian), from a
+// start 3 degrees and 8 mm off, on noisy inlier sets of 6 to 200 correspondences; and it
+// refuses fewer than 4 or a start behind the camera.
+TEST(RefinePoseByReprojection, ReachesOpenCvsLeastSquaresPose) {
+  auto cost = [](const SyntheticSet& data, const Eigen::Isometry3d& pose) {
+    double sum = 0.0;
+    for (size_t i = 0; i < data.set.object_points.size(); ++i) {
+      sum += (kCamera.Project(pose * data.set.object_points[i]) - data.set.image_points[i]).squaredNorm();
+    }
+    return sum;
+  };
+  for (const int n : {6, 20, 200}) {
+    for (uint64_t seed = 1; seed <= 4; ++seed) {
+      const SyntheticSet data = MakeSet(n, 0.0, seed * 31 + static_cast<uint64_t>(n));
+      std::vector<int> all(static_cast<size_t>(n));
+      for (int i = 0; i < n; ++i) all[static_cast<size_t>(i)] = i;
+      Eigen::Isometry3d start = data.truth;
+      start.linear() = ExpSO3(Eigen::Vector3d(0.03, -0.04, 0.02)) * start.linear();
+      start.translation() += Eigen::Vector3d(0.005, -0.004, 0.005);
+      Eigen::Isometry3d ours = start;
+      ASSERT_TRUE(RefinePoseByReprojection(kCamera, data.set.object_points, data.set.image_points, all, &ours));
+      std::vector<cv::Point3d> object_points;
+      std::vector<cv::Point2d> image_points;
+      for (int i = 0; i < n; ++i) {
+        const Eigen::Vector3d& x = data.set.object_points[static_cast<size_t>(i)];
+        object_points.emplace_back(x.x(), x.y(), x.z());
+        image_points.emplace_back(data.set.image_points[static_cast<size_t>(i)].x(), data.set.image_points[static_cast<size_t>(i)].y());
+      }
+      cv::Mat k, rotation, rvec, tvec;
+      cv::eigen2cv(kCamera.K(), k);
+      const Eigen::Matrix3d r = start.linear();
+      cv::eigen2cv(r, rotation);
+      cv::Rodrigues(rotation, rvec);
+      cv::eigen2cv(Eigen::Vector3d(start.translation()), tvec);
+      cv::solvePnPRefineLM(object_points, image_points, k, cv::noArray(), rvec, tvec);
+      cv::Rodrigues(rvec, rotation);
+      Eigen::Matrix3d opencv_rotation;
+      Eigen::Vector3d opencv_translation;
+      cv::cv2eigen(rotation, opencv_rotation);
+      cv::cv2eigen(tvec, opencv_translation);
+      const Eigen::Isometry3d opencv = MakePose(opencv_rotation, opencv_translation);
+      EXPECT_LE(cost(data, ours), cost(data, opencv) * (1.0 + 1e-9) + 1e-12) << "n " << n << " seed " << seed;
+      EXPECT_LT(RotationErrorDeg(ours.linear(), opencv.linear()), 1e-4) << "n " << n << " seed " << seed;
+      EXPECT_LT(TranslationError(ours, opencv), 1e-6) << "n " << n << " seed " << seed;
+      EXPECT_LT(cost(data, ours), cost(data, start));
+    }
+  }
+  const SyntheticSet data = MakeSet(10, 0.0, 5);
+  Eigen::Isometry3d pose = data.truth;
+  EXPECT_FALSE(RefinePoseByReprojection(kCamera, data.set.object_points, data.set.image_points, {0, 1, 2}, &pose));
+  Eigen::Isometry3d behind = data.truth;
+  behind.translation().z() = -1.0;
+  EXPECT_FALSE(RefinePoseByReprojection(kCamera, data.set.object_points, data.set.image_points, {0, 1, 2, 3, 4}, &behind));
+  EXPECT_TRUE(pose.isApprox(data.truth));
 }
 
 TEST(PnpThreshold, ScalesWithSizeAndClips) {

@@ -29,6 +29,75 @@ double PnpThreshold(const PnpOptions& options, double projected_size_px) {
   return std::clamp(options.tau_fraction * projected_size_px, options.tau_min_px, options.tau_max_px);
 }
 
+bool RefinePoseByReprojection(const Camera& camera, const std::vector<Eigen::Vector3d>& object_points,
+                              const std::vector<Eigen::Vector2d>& image_points, const std::vector<int>& indices,
+                              Eigen::Isometry3d* cam_from_object) {
+  if (indices.size() < 4) return false;
+  const double fx = camera.fx, fy = camera.fy;
+  // The cost at a pose; +infinity when a point is not in front of the camera.
+  auto cost_at = [&](const Eigen::Isometry3d& at) {
+    double cost = 0.0;
+    for (int i : indices) {
+      const Eigen::Vector3d p = at * object_points[static_cast<size_t>(i)];
+      if (!(p.z() > 1e-9)) return std::numeric_limits<double>::infinity();
+      cost += (camera.Project(p) - image_points[static_cast<size_t>(i)]).squaredNorm();
+    }
+    return cost;
+  };
+  Eigen::Isometry3d current = *cam_from_object;
+  double cost = cost_at(current);
+  if (!std::isfinite(cost)) return false;
+  double lambda = 1e-3;
+  bool converged = false;
+  for (int iteration = 0; iteration < 20 && !converged; ++iteration) {
+    Eigen::Matrix<double, 6, 6> normal = Eigen::Matrix<double, 6, 6>::Zero();
+    Eigen::Matrix<double, 6, 1> gradient = Eigen::Matrix<double, 6, 1>::Zero();
+    for (int i : indices) {
+      const Eigen::Vector3d p = current * object_points[static_cast<size_t>(i)];
+      const double inverse_z = 1.0 / p.z();
+      const Eigen::Vector2d residual = camera.Project(p) - image_points[static_cast<size_t>(i)];
+      Eigen::Matrix<double, 2, 3> projection;
+      projection << fx * inverse_z, 0.0, -fx * p.x() * inverse_z * inverse_z,
+                    0.0, fy * inverse_z, -fy * p.y() * inverse_z * inverse_z;
+      Eigen::Matrix<double, 3, 6> motion;  // d(point) / d(w, v) at 0: [-[p]x | I]
+      motion << 0.0, p.z(), -p.y(), 1.0, 0.0, 0.0,
+                -p.z(), 0.0, p.x(), 0.0, 1.0, 0.0,
+                p.y(), -p.x(), 0.0, 0.0, 0.0, 1.0;
+      const Eigen::Matrix<double, 2, 6> jacobian = projection * motion;
+      normal.noalias() += jacobian.transpose() * jacobian;
+      gradient.noalias() += jacobian.transpose() * residual;
+    }
+    bool improved = false;
+    for (int attempt = 0; attempt < 8 && !improved; ++attempt) {
+      Eigen::Matrix<double, 6, 6> damped = normal;
+      damped.diagonal() += lambda * normal.diagonal().cwiseMax(1e-12);
+      const Eigen::Matrix<double, 6, 1> step = damped.ldlt().solve(-gradient);
+      if (!step.allFinite()) return false;
+      const Eigen::Vector3d w = step.head<3>();
+      Eigen::Isometry3d moved = Eigen::Isometry3d::Identity();
+      if (w.norm() > 0.0) moved.linear() = Eigen::AngleAxisd(w.norm(), w / w.norm()).toRotationMatrix();
+      moved.translation() = step.tail<3>();
+      const Eigen::Isometry3d candidate = moved * current;
+      const double candidate_cost = cost_at(candidate);
+      if (candidate_cost < cost) {
+        const double decrease = cost - candidate_cost;
+        current = candidate;
+        cost = candidate_cost;
+        lambda = std::max(1e-9, lambda * 0.1);
+        improved = true;
+        // Converged: the step or the decrease is at the level of rounding.
+        converged = step.norm() < 1e-9 * (1.0 + current.translation().norm()) || decrease <= 1e-12 * (1.0 + cost);
+      } else {
+        lambda *= 10.0;
+      }
+    }
+    if (!improved) break;
+  }
+  if (!current.matrix().allFinite()) return false;
+  *cam_from_object = current;
+  return true;
+}
+
 std::vector<Eigen::Vector3d> BackprojectKeypoints(const Camera& camera, const cv::Mat& depth, const cv::Mat& mask,
                                                   const std::vector<Eigen::Vector2d>& image_points) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -126,30 +195,7 @@ class MsacProblem {
 
   // Levenberg-Marquardt on the reprojection error of `indices`, from `pose`.
   bool RefineLm(const std::vector<int>& indices, Eigen::Isometry3d* pose) const {
-    if (indices.size() < 4) return false;
-    std::vector<cv::Point3d> object_points;
-    std::vector<cv::Point2d> image_points;
-    for (int i : indices) {
-      const Eigen::Vector3d& x = set_.object_points[static_cast<size_t>(i)];
-      const Eigen::Vector2d& u = set_.image_points[static_cast<size_t>(i)];
-      object_points.emplace_back(x.x(), x.y(), x.z());
-      image_points.emplace_back(u.x(), u.y());
-    }
-    cv::Mat k, rotation_cv, rvec, tvec;
-    cv::eigen2cv(camera_.K(), k);
-    const Eigen::Matrix3d r = pose->linear();
-    cv::eigen2cv(r, rotation_cv);
-    cv::Rodrigues(rotation_cv, rvec);
-    cv::eigen2cv(Eigen::Vector3d(pose->translation()), tvec);
-    try {
-      cv::solvePnPRefineLM(object_points, image_points, k, cv::noArray(), rvec, tvec);
-    } catch (const cv::Exception&) {
-      return false;
-    }
-    const Eigen::Isometry3d refined = PoseFromRvecTvec(rvec, tvec);
-    if (!refined.matrix().allFinite()) return false;
-    *pose = refined;
-    return true;
+    return RefinePoseByReprojection(camera_, set_.object_points, set_.image_points, indices, pose);
   }
 
   // Minimal models from three correspondences.

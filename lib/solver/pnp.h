@@ -86,6 +86,19 @@ double PnpThreshold(const PnpOptions& options, double projected_size_px);
 void EstimatePnp(const PnpOptions& options, const CorrespondenceSet& set, const Camera& camera,
                  double projected_size_px, const PnpPrior& prior, PnpResult* result);
 
+/// Levenberg-Marquardt on the reprojection error of the correspondences `indices` (pixels
+/// squared, summed), from *cam_from_object: what OpenCV's solvePnPRefineLM minimizes, at
+/// most 20 iterations as there, in a 6x6 loop of its own (MSAC's local optimization calls it
+/// for every new best model of every set; OpenCV's generic solver took a tenth of a
+/// detection's CPU time). The step is a rotation about the camera centre and a translation.
+/// The same minimum as OpenCV's, but not the same path to it: where the depth is weakly
+/// constrained the final poses differ, and the answers with them (bench/RESULTS.md, "ICP's
+/// and PnP's inner loops"). False (pose untouched) with fewer than 4 indices, a point behind
+/// the camera at the start, or a non-finite step.
+bool RefinePoseByReprojection(const Camera& camera, const std::vector<Eigen::Vector3d>& object_points,
+                              const std::vector<Eigen::Vector2d>& image_points, const std::vector<int>& indices,
+                              Eigen::Isometry3d* cam_from_object);
+
 /// Camera-frame 3D points of image points from a depth image: the median of the valid
 /// depths (CV_32F metres, > 0) in the 3x3 pixels around each point that are also inside
 /// `mask` (CV_8U, may be empty), back-projected; NaN where fewer than 3 are valid.
