@@ -113,7 +113,7 @@ TEST(FindLayerViolations, FindsEveryForbiddenKindInATree) {
 // its own header and those before it. A new header must be given its place here.
 const std::vector<std::string> kSolverOrder = {
     // the algorithms
-    "segments", "plane", "observation", "region", "score", "match", "icp", "pnp", "mhpo", "ppf",
+    "segments", "plane", "observation", "region", "score", "match", "point_tree", "icp", "pnp", "mhpo", "ppf",
     "silhouette_poses", "frame_check",
     // what every stage shares: the options, the result, the depth's candidate regions
     "solver_options", "result", "detect_options", "proposals",
