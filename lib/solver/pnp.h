@@ -88,13 +88,14 @@ void EstimatePnp(const PnpOptions& options, const CorrespondenceSet& set, const 
 
 /// Levenberg-Marquardt on the reprojection error of the correspondences `indices` (pixels
 /// squared, summed), from *cam_from_object: what OpenCV's solvePnPRefineLM minimizes, at
-/// most 20 iterations as there, in a 6x6 loop of its own (MSAC's local optimization calls it
-/// for every new best model of every set; OpenCV's generic solver took a tenth of a
-/// detection's CPU time). The step is a rotation about the camera centre and a translation.
-/// The same minimum as OpenCV's, but not the same path to it: where the depth is weakly
-/// constrained the final poses differ, and the answers with them (bench/RESULTS.md, "ICP's
-/// and PnP's inner loops"). False (pose untouched) with fewer than 4 indices, a point behind
-/// the camera at the start, or a non-finite step.
+/// most 20 iterations as there, in a 6x6 loop of its own (EstimatePnp refines every set's
+/// MSAC pose with it, and P3P's local optimization each new best model; OpenCV's generic
+/// solver took a tenth of a detection's CPU time). The step is a rotation about the camera
+/// centre and a translation. It ends at OpenCV's pose to rounding (under a micrometre on
+/// ill-conditioned sets), yet not bit for bit, and the stages after PnP turn that rounding
+/// into a few different answers per dev set (bench/RESULTS.md, "ICP's and PnP's inner
+/// loops"). False (pose untouched) with fewer than 4 indices, a point behind the camera at
+/// the start, or a non-finite step.
 bool RefinePoseByReprojection(const Camera& camera, const std::vector<Eigen::Vector3d>& object_points,
                               const std::vector<Eigen::Vector2d>& image_points, const std::vector<int>& indices,
                               Eigen::Isometry3d* cam_from_object);
