@@ -1,4 +1,4 @@
-// MHPO residuals: autodiff Jacobians against central differences; refinement lowers S.
+// MHPO residuals: analytic Jacobians against central differences; refinement lowers S.
 #include "solver/mhpo.h"
 
 #include <gtest/gtest.h>
@@ -29,19 +29,19 @@ struct Fixture {
   }
 };
 
+// The Jacobian of `function` at `point` against central differences of the residual at
+// the point moved by small left increments: p + h e_i (i < 3), R(h e_(i-3)) p.
 template <typename Function>
 void ExpectJacobianMatchesNumeric(const Function& function, const Eigen::Vector3d& point) {
-  double delta[6] = {0.001, -0.002, 0.0005, 0.01, -0.005, 0.008};
   double analytic[6];
-  function(point, delta, analytic);
+  function(point, analytic);
+  const double h = 1e-6;
   for (int i = 0; i < 6; ++i) {
-    const double h = i < 3 ? 1e-6 : 1e-6;
-    double plus[6], minus[6];
-    std::copy(delta, delta + 6, plus);
-    std::copy(delta, delta + 6, minus);
-    plus[i] += h;
-    minus[i] -= h;
-    const double numeric = (function(point, plus, nullptr) - function(point, minus, nullptr)) / (2 * h);
+    auto moved = [&](double step) -> Eigen::Vector3d {
+      if (i < 3) return point + step * Eigen::Vector3d::Unit(i);
+      return Eigen::AngleAxisd(step, Eigen::Vector3d::Unit(i - 3)) * point;
+    };
+    const double numeric = (function(moved(h), nullptr) - function(moved(-h), nullptr)) / (2 * h);
     EXPECT_NEAR(analytic[i], numeric, 1e-4 * std::max(1.0, std::abs(numeric))) << "parameter " << i;
   }
 }
@@ -52,7 +52,7 @@ TEST(EvaluateSilhouetteResidual, JacobianMatchesCentralDifferences) {
   // Points near (not on) the boundary, where the signed distance is smooth.
   for (const Eigen::Vector3d& point : {Eigen::Vector3d(0.03, 0.01, 0.52), Eigen::Vector3d(-0.02, 0.025, 0.49)}) {
     ExpectJacobianMatchesNumeric(
-        [&](const Eigen::Vector3d& p, const double* d, double* j) { return EvaluateSilhouetteResidual(target, p, d, j); },
+        [&](const Eigen::Vector3d& p, double* j) { return EvaluateSilhouetteResidual(target, p, j); },
         point);
   }
 }
@@ -62,7 +62,7 @@ TEST(EvaluateDepthResidual, JacobianMatchesCentralDifferences) {
   const MhpoTarget target = MakeMhpoTarget(f.grid, f.z_m);
   const Eigen::Vector3d point = f.truth * Eigen::Vector3d(0.0, 0.0, 0.02);
   ExpectJacobianMatchesNumeric(
-      [&](const Eigen::Vector3d& p, const double* d, double* j) { return EvaluateDepthResidual(target, p, d, j); },
+      [&](const Eigen::Vector3d& p, double* j) { return EvaluateDepthResidual(target, p, j); },
       point);
 }
 
@@ -98,6 +98,31 @@ TEST(RefineByMhpo, LowersScoreFromPerturbedPoses) {
   for (const auto& h : report.hypotheses) best_initial = std::min(best_initial, h.initial_s);
   EXPECT_LT(report.best_score.s, 0.7 * best_initial);
   EXPECT_LT(TranslationError(best, f.truth), TranslationError(hypotheses[0], f.truth));
+}
+
+// Rounds of Levenberg-Marquardt on the mask and depth terms bring one hypothesis, 3 degrees
+// and 7 mm off, to within a third of its translation and rotation errors. (Not to the
+// rendered pose itself: the contour points are the centres of the rendered edge pixels,
+// half a pixel inside the outline, and the objective pulls them onto the observed
+// boundary: here its minimum lies about 2 mm from the truth. Targeting the signed distance
+// -0.5 instead removes that offset on this fixture but did not help on the dev sets,
+// bench/RESULTS.md, "MHPO's Levenberg-Marquardt loop".)
+TEST(RefineByMhpo, BringsAHypothesisCloserToTheRenderedPose) {
+  Fixture f;
+  const MhpoTarget target = MakeMhpoTarget(f.grid, f.z_m);
+  Eigen::Isometry3d start = f.truth;
+  start.linear() = ExpSO3(Eigen::Vector3d(0.03, -0.03, 0.03)) * start.linear();
+  start.translation() += Eigen::Vector3d(0.004, -0.004, 0.004);
+  MhpoOptions options;
+  options.early_stop_score = 0.0;
+  Eigen::Isometry3d best;
+  MhpoReport report;
+  InlineExecutor executor;
+  RefineByMhpo(options, ScoreOptions(), target, f.mesh, {start}, &executor, &best, &report);
+  ASSERT_TRUE(report.success) << report.message;
+  EXPECT_LT(TranslationError(best, f.truth), TranslationError(start, f.truth) / 3.0);
+  EXPECT_LT(RotationErrorDeg(best.linear(), f.truth.linear()), RotationErrorDeg(start.linear(), f.truth.linear()) / 3.0);
+  EXPECT_LT(report.best_score.s, report.hypotheses[0].initial_s / 3.0);
 }
 
 TEST(RefineByMhpo, SameResultWithOneAndTwoThreads) {

@@ -5,9 +5,7 @@
 #include <memory>
 #include <sstream>
 
-#include <ceres/ceres.h>
 #include <ceres/cubic_interpolation.h>
-#include <ceres/rotation.h>
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
@@ -48,72 +46,164 @@ struct TargetInterpolators {
   Interpolator depth;
 };
 
-// p' = R(phi) p + rho, the left increment of the current camera-frame point.
-template <typename T>
-void MovePoint(const Eigen::Vector3d& point, const T* delta, T moved[3]) {
-  const T p[3] = {T(point.x()), T(point.y()), T(point.z())};
-  ceres::AngleAxisRotatePoint(delta + 3, p, moved);
-  moved[0] += delta[0];
-  moved[1] += delta[1];
-  moved[2] += delta[2];
-}
-
-// Continuous image coordinates under the grid camera, minus 0.5 so that integer values
-// fall on pixel centres, the sample positions of ceres::Grid2D.
-template <typename T>
-void ProjectToGrid(const Camera& camera, const T moved[3], T* row, T* col) {
-  const T z = moved[2] > T(1e-6) ? moved[2] : T(1e-6);
-  *col = T(camera.fx) * moved[0] / z + T(camera.cx) - T(0.5);
-  *row = T(camera.fy) * moved[1] / z + T(camera.cy) - T(0.5);
-}
-
-// (a) silhouette: signed distance of the projected contour point to the observed boundary.
-struct SilhouetteCost {
-  SilhouetteCost(const Camera& camera, const Interpolator* sdf, const Eigen::Vector3d& point, double weight)
-      : camera(camera), sdf(sdf), point(point), weight(weight) {}
-  template <typename T>
-  bool operator()(const T* delta, T* residual) const {
-    T moved[3], row, col, value;
-    MovePoint(point, delta, moved);
-    ProjectToGrid(camera, moved, &row, &col);
-    sdf->Evaluate(row, col, &value);
-    residual[0] = T(weight) * value;
-    return true;
-  }
-  Camera camera;
-  const Interpolator* sdf;
-  Eigen::Vector3d point;
-  double weight;
+// The grid camera's projection of `point` (camera frame) in the coordinates of ceres::Grid2D
+// (integer values on pixel centres: the continuous coordinates minus 0.5), and the
+// derivatives of (row, col) with respect to the point. A point at or behind z = 1e-6 is
+// projected as if at 1e-6, which does not move with it.
+struct GridProjection {
+  double row = 0.0, col = 0.0;
+  Eigen::Vector3d d_row = Eigen::Vector3d::Zero(), d_col = Eigen::Vector3d::Zero();
 };
 
-// (b) depth: (rendered − observed depth) / z_M at the projected surface point.
-struct DepthCost {
-  DepthCost(const Camera& camera, const Interpolator* depth, const Eigen::Vector3d& point, double z_m, double weight)
-      : camera(camera), depth(depth), point(point), z_m(z_m), weight(weight) {}
-  template <typename T>
-  bool operator()(const T* delta, T* residual) const {
-    T moved[3], row, col, observed;
-    MovePoint(point, delta, moved);
-    ProjectToGrid(camera, moved, &row, &col);
-    depth->Evaluate(row, col, &observed);
-    residual[0] = T(weight) * (moved[2] - observed) / T(z_m);
-    return true;
+GridProjection ProjectToGrid(const Camera& camera, const Eigen::Vector3d& point) {
+  GridProjection projection;
+  const bool in_front = point.z() > 1e-6;
+  const double z = in_front ? point.z() : 1e-6;
+  projection.col = camera.fx * point.x() / z + camera.cx - 0.5;
+  projection.row = camera.fy * point.y() / z + camera.cy - 0.5;
+  projection.d_col = Eigen::Vector3d(camera.fx / z, 0.0, in_front ? -camera.fx * point.x() / (z * z) : 0.0);
+  projection.d_row = Eigen::Vector3d(0.0, camera.fy / z, in_front ? -camera.fy * point.y() / (z * z) : 0.0);
+  return projection;
+}
+
+// The derivative of a residual with respect to the left increment (rho, phi) at zero,
+// p' = R(phi) p + rho, from its derivative with respect to the point p: d/d rho = d/dp,
+// d/d phi = p x d/dp (R(phi) p = p + phi x p to first order).
+void IncrementJacobian(const Eigen::Vector3d& point, const Eigen::Vector3d& d_point, double jacobian[6]) {
+  const Eigen::Vector3d d_phi = point.cross(d_point);
+  for (int i = 0; i < 3; ++i) {
+    jacobian[i] = d_point[i];
+    jacobian[3 + i] = d_phi[i];
   }
-  Camera camera;
-  const Interpolator* depth;
-  Eigen::Vector3d point;
-  double z_m;
-  double weight;
+}
+
+// (a) silhouette: the signed distance of the projected contour point to the observed boundary.
+double SilhouetteResidual(const Camera& camera, const Interpolator& sdf, const Eigen::Vector3d& point,
+                          double jacobian[6]) {
+  const GridProjection at = ProjectToGrid(camera, point);
+  double value = 0.0, d_row = 0.0, d_col = 0.0;
+  sdf.Evaluate(at.row, at.col, &value, &d_row, &d_col);
+  if (jacobian != nullptr) IncrementJacobian(point, d_row * at.d_row + d_col * at.d_col, jacobian);
+  return value;
+}
+
+// (b) depth: (rendered - observed depth) / z_M at the projected surface point.
+double DepthResidual(const Camera& camera, const Interpolator& depth, const Eigen::Vector3d& point, double z_m,
+                     double jacobian[6]) {
+  const GridProjection at = ProjectToGrid(camera, point);
+  double observed = 0.0, d_row = 0.0, d_col = 0.0;
+  depth.Evaluate(at.row, at.col, &observed, &d_row, &d_col);
+  if (jacobian != nullptr) {
+    IncrementJacobian(point, (Eigen::Vector3d::UnitZ() - d_row * at.d_row - d_col * at.d_col) / z_m, jacobian);
+  }
+  return (point.z() - observed) / z_m;
+}
+
+// One round's least-squares problem: each term a mean, as in eqs. (10) and (13) (weights
+// 1/N inside the squares), each residual under a Huber penalty.
+struct RoundProblem {
+  const Camera* camera = nullptr;
+  const TargetInterpolators* interpolators = nullptr;
+  double z_m = 0.0;
+  std::vector<Eigen::Vector3d> contour, surface;  // camera frame, at the round's start
+  double contour_weight = 0.0, contour_huber = 0.0;
+  double surface_weight = 0.0, surface_huber = 0.0;
 };
 
-template <typename Cost>
-double EvaluateCost(const Cost& cost, const double delta[6], double jacobian[6]) {
-  ceres::AutoDiffCostFunction<Cost, 1, 6> function(new Cost(cost));
-  double residual = 0.0;
-  const double* parameters[1] = {delta};
-  double* jacobians[1] = {jacobian};
-  function.Evaluate(parameters, &residual, jacobian ? jacobians : nullptr);
-  return residual;
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+
+// Half the sum of the Huber penalties rho(r^2) of the residuals with the points moved by
+// (rotation, translation). With `normal` and `gradient`, also the Gauss-Newton system of
+// the left increment at zero: each residual and its Jacobian scaled by sqrt(rho'(r^2))
+// (Triggs' correction without its second-order part, which is how Ceres treats Huber).
+double EvaluateRound(const RoundProblem& problem, const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation,
+                     Matrix6d* normal, Vector6d* gradient) {
+  const bool linearize = normal != nullptr;
+  if (linearize) {
+    normal->setZero();
+    gradient->setZero();
+  }
+  double cost = 0.0;
+  double jacobian[6];
+  auto add = [&](double residual, double huber) {
+    const double s = residual * residual, threshold = huber * huber;
+    const double rho = s <= threshold ? s : 2.0 * huber * std::sqrt(s) - threshold;
+    cost += 0.5 * rho;
+    if (!linearize) return;
+    const double rho1 = s <= threshold ? 1.0 : huber / std::sqrt(s);
+    const Eigen::Map<const Vector6d> j(jacobian);
+    normal->selfadjointView<Eigen::Lower>().rankUpdate(j, rho1);
+    *gradient += (rho1 * residual) * j;
+  };
+  for (const Eigen::Vector3d& point : problem.contour) {
+    const double value = SilhouetteResidual(*problem.camera, problem.interpolators->sdf, rotation * point + translation,
+                                            linearize ? jacobian : nullptr);
+    if (linearize) for (double& d : jacobian) d *= problem.contour_weight;
+    add(problem.contour_weight * value, problem.contour_huber);
+  }
+  for (const Eigen::Vector3d& point : problem.surface) {
+    const double value = DepthResidual(*problem.camera, problem.interpolators->depth, rotation * point + translation,
+                                       problem.z_m, linearize ? jacobian : nullptr);
+    if (linearize) for (double& d : jacobian) d *= problem.surface_weight;
+    add(problem.surface_weight * value, problem.surface_huber);
+  }
+  if (linearize) *normal = normal->selfadjointView<Eigen::Lower>();
+  return cost;
+}
+
+// R(phi) for the rotation vector phi.
+Eigen::Matrix3d RotationOf(const Eigen::Vector3d& phi) {
+  const double angle = phi.norm();
+  if (angle < 1e-12) return Eigen::Matrix3d::Identity();
+  return Eigen::AngleAxisd(angle, phi / angle).toRotationMatrix();
+}
+
+// Levenberg-Marquardt on the round's problem over a left increment of the points, at most
+// `iterations` steps (successful or not). Every accepted step is composed into (rotation,
+// translation) and the next one linearized at zero again. The trust-region rules are
+// Ceres' defaults for its LEVENBERG_MARQUARDT strategy, which this replaces (one dense 6x6
+// system instead of a problem of hundreds of residual blocks built per round): the
+// damping diag(J^T J) clamped to [1e-6, 1e32] over the radius, first 1e4; a step is taken
+// when it achieves more than 1e-3 of the decrease its model predicts, the radius then
+// grows by 1 / max(1/3, 1 - (2 ratio - 1)^3) and otherwise shrinks by a factor that
+// doubles with each failure; the loop ends when the cost changes by less than 1e-6 of
+// itself or the gradient vanishes.
+void SolveRound(const RoundProblem& problem, int iterations, Eigen::Matrix3d* rotation, Eigen::Vector3d* translation) {
+  Matrix6d normal;
+  Vector6d gradient;
+  double cost = EvaluateRound(problem, *rotation, *translation, &normal, &gradient);
+  double radius = 1e4, decrease = 2.0;
+  for (int iteration = 0; iteration < iterations; ++iteration) {
+    if (!(gradient.lpNorm<Eigen::Infinity>() > 1e-10)) return;
+    Matrix6d damped = normal;
+    damped.diagonal() += normal.diagonal().cwiseMax(1e-6).cwiseMin(1e32) / radius;
+    const Vector6d step = damped.ldlt().solve(-gradient);
+    const double model_decrease = -(gradient.dot(step) + 0.5 * step.dot(normal * step));
+    if (!step.allFinite() || !(model_decrease > 0.0)) {
+      radius /= decrease;
+      decrease *= 2.0;
+      continue;
+    }
+    const Eigen::Matrix3d turn = RotationOf(step.tail<3>());
+    const Eigen::Matrix3d next_rotation = turn * *rotation;
+    const Eigen::Vector3d next_translation = turn * *translation + step.head<3>();
+    const double next_cost = EvaluateRound(problem, next_rotation, next_translation, nullptr, nullptr);
+    const double ratio = (cost - next_cost) / model_decrease;
+    const bool converged = std::abs(cost - next_cost) <= 1e-6 * cost;
+    if (!(ratio > 1e-3)) {
+      if (converged) return;
+      radius /= decrease;
+      decrease *= 2.0;
+      continue;
+    }
+    *rotation = next_rotation;
+    *translation = next_translation;
+    if (converged || iteration + 1 == iterations) return;
+    radius = std::min(1e16, radius / std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * ratio - 1.0, 3)));
+    decrease = 2.0;
+    cost = EvaluateRound(problem, *rotation, *translation, &normal, &gradient);
+  }
 }
 
 // True when the observed depth in the 4x4 bicubic support around (u, v) is all valid.
@@ -217,40 +307,25 @@ void RunRound(const MhpoOptions& options, const ScoreOptions& score_options, con
   subsample(&contour, options.max_contour_points);
   subsample(&surface, options.max_depth_points);
 
-  // Each term is a mean, as in eqs. (10) and (13): weights 1/N inside the squares.
-  double delta[6] = {0, 0, 0, 0, 0, 0};
-  ceres::Problem problem;
+  RoundProblem problem;
+  problem.camera = &camera;
+  problem.interpolators = &interpolators;
+  problem.z_m = target.z_m;
   const double grid_side = std::max(camera.width, camera.height);
-  const double silhouette_weight = 1.0 / (grid_side * std::sqrt(static_cast<double>(std::max<size_t>(1, contour.size()))));
-  for (const Eigen::Vector3d& point : contour) {
-    problem.AddResidualBlock(
-        new ceres::AutoDiffCostFunction<SilhouetteCost, 1, 6>(
-            new SilhouetteCost(camera, &interpolators.sdf, point, silhouette_weight)),
-        new ceres::HuberLoss(silhouette_weight * options.silhouette_robust_px), delta);
-  }
+  problem.contour_weight = 1.0 / (grid_side * std::sqrt(static_cast<double>(std::max<size_t>(1, contour.size()))));
+  problem.contour_huber = problem.contour_weight * options.silhouette_robust_px;
+  problem.contour = std::move(contour);
   if (!surface.empty() && target.z_m > 0.0 && options.lambda_d > 0.0) {
-    const double depth_weight = std::sqrt(options.lambda_d / static_cast<double>(surface.size()));
-    for (const Eigen::Vector3d& point : surface) {
-      problem.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<DepthCost, 1, 6>(
-              new DepthCost(camera, &interpolators.depth, point, target.z_m, depth_weight)),
-          new ceres::HuberLoss(depth_weight * options.huber_beta), delta);
-    }
+    problem.surface_weight = std::sqrt(options.lambda_d / static_cast<double>(surface.size()));
+    problem.surface_huber = problem.surface_weight * options.huber_beta;
+    problem.surface = std::move(surface);
   }
-  ceres::Solver::Options solver_options;
-  solver_options.linear_solver_type = ceres::DENSE_QR;
-  solver_options.max_num_iterations = options.lm_iterations;
-  solver_options.num_threads = 1;
-  solver_options.logging_type = ceres::SILENT;
-  solver_options.minimizer_progress_to_stdout = false;
-  ceres::Solver::Summary summary;
-  ceres::Solve(solver_options, &problem, &summary);
-
-  Eigen::Matrix3d rotation;
-  ceres::AngleAxisToRotationMatrix(delta + 3, ceres::ColumnMajorAdapter3x3(rotation.data()));
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  SolveRound(problem, options.lm_iterations, &rotation, &translation);
   Eigen::Isometry3d next = Eigen::Isometry3d::Identity();
   next.linear() = rotation * state->current.linear();
-  next.translation() = rotation * state->current.translation() + Eigen::Vector3d(delta[0], delta[1], delta[2]);
+  next.translation() = rotation * state->current.translation() + translation;
   state->current = next;
   state->report.rounds = round + 1;
   const PoseScore score = ScorePose(grid, mesh, next, target.z_m, score_options, &state->raster);
@@ -317,17 +392,14 @@ MhpoTarget MakeMhpoTarget(const EvaluationGrid& grid, double z_m, int fill_radiu
   return target;
 }
 
-double EvaluateSilhouetteResidual(const MhpoTarget& target, const Eigen::Vector3d& point_in_cam,
-                                  const double delta[6], double jacobian[6]) {
+double EvaluateSilhouetteResidual(const MhpoTarget& target, const Eigen::Vector3d& point_in_cam, double jacobian[6]) {
   const TargetInterpolators interpolators(target);
-  return EvaluateCost(SilhouetteCost(target.grid->camera, &interpolators.sdf, point_in_cam, 1.0), delta, jacobian);
+  return SilhouetteResidual(target.grid->camera, interpolators.sdf, point_in_cam, jacobian);
 }
 
-double EvaluateDepthResidual(const MhpoTarget& target, const Eigen::Vector3d& point_in_cam,
-                             const double delta[6], double jacobian[6]) {
+double EvaluateDepthResidual(const MhpoTarget& target, const Eigen::Vector3d& point_in_cam, double jacobian[6]) {
   const TargetInterpolators interpolators(target);
-  return EvaluateCost(DepthCost(target.grid->camera, &interpolators.depth, point_in_cam, target.z_m, 1.0),
-                      delta, jacobian);
+  return DepthResidual(target.grid->camera, interpolators.depth, point_in_cam, target.z_m, jacobian);
 }
 
 void RefineByMhpo(const MhpoOptions& options, const ScoreOptions& score_options,

@@ -5,7 +5,8 @@
 /// The paper differentiates through a GPU soft rasterizer with Adam. Here, per hypothesis
 /// and round: rasterize once; take the rendered silhouette contour and the visible surface
 /// points (object frame, from the exact rasterized depth); run a few Levenberg-Marquardt
-/// steps (Ceres) on an SE(3) increment over (a) silhouette residuals, the signed distance
+/// steps (a dense 6x6 loop with Ceres' trust-region rules; the bicubic interpolation is
+/// Ceres') on an SE(3) increment over (a) silhouette residuals, the signed distance
 /// of each projected contour point to the observed mask boundary, and (b) Huber depth
 /// residuals (rendered − observed depth) / z_M, both read through bicubic interpolation;
 /// then re-rasterize and score S (eq. 12) exactly. The best state over all hypotheses and
@@ -96,13 +97,11 @@ void RefineByMhpo(const MhpoOptions& options, const ScoreOptions& score_options,
                   const Deadline* deadline = nullptr,
                   const std::vector<PoseScore>* initial_scores = nullptr);
 
-/// Residual blocks exposed for tests (Jacobian checks): a silhouette residual of one
-/// contour point and a depth residual of one surface point, under the increment
-/// delta = (rho, phi) applied on the left: p' = R(phi) p + rho.
-/// Evaluate computes residual and (if jacobian != nullptr) its 1x6 autodiff Jacobian.
-double EvaluateSilhouetteResidual(const MhpoTarget& target, const Eigen::Vector3d& point_in_cam,
-                                  const double delta[6], double jacobian[6]);
-double EvaluateDepthResidual(const MhpoTarget& target, const Eigen::Vector3d& point_in_cam,
-                             const double delta[6], double jacobian[6]);
+/// The residuals exposed for tests (Jacobian checks): a silhouette residual of one contour
+/// point and a depth residual of one surface point (camera frame), unweighted, and when
+/// `jacobian` is not null their derivatives with respect to the left increment
+/// (rho, phi) at zero, p' = R(phi) p + rho: what each Levenberg-Marquardt step linearizes.
+double EvaluateSilhouetteResidual(const MhpoTarget& target, const Eigen::Vector3d& point_in_cam, double jacobian[6]);
+double EvaluateDepthResidual(const MhpoTarget& target, const Eigen::Vector3d& point_in_cam, double jacobian[6]);
 
 }  // namespace g6d
