@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <mutex>
 #include <opencv2/core.hpp>
 #include <sstream>
 #include <vector>
@@ -15,6 +16,18 @@
 
 namespace g6d {
 namespace {
+
+// Every OSMesa call sequence (a context's creation, a render, a context's destruction)
+// holds this lock: one process-wide, not one per context. Debian 12's Mesa (22.3,
+// llvmpipe) shares one screen among OSMesa contexts, and two contexts drawing at once on
+// two threads segfaulted inside Mesa (g6d-build-templates on 2 threads, about one run in
+// 20 under gdb; once in a cold CI run, 2026-11-29). llvmpipe draws on its own threads, so
+// the lock costs the template build little (bench/RESULTS.md, "Template renders
+// serialized").
+std::mutex& OsMesaLock() {
+  static std::mutex lock;
+  return lock;
+}
 
 // Every GL entry point is fetched with OSMesaGetProcAddress instead of being linked: the
 // process may also load glvnd's libGL (through Open3D), whose dispatch knows nothing about
@@ -434,6 +447,7 @@ GlRenderer::GlRenderer(const Mesh& mesh, const GlRendererOptions& options)
     G6D_THROW("GlRenderer: bad GlRendererOptions: " << error);
   }
   impl_->options = options;
+  const std::lock_guard<std::mutex> lock(OsMesaLock());
   // A core 3.3 context with no default depth buffer: everything is drawn into our own
   // framebuffer object, whose float attachments a core profile guarantees.
   const int attributes[] = {OSMESA_FORMAT,
@@ -487,6 +501,7 @@ GlRenderer::GlRenderer(const Mesh& mesh, const GlRendererOptions& options)
 }
 
 GlRenderer::~GlRenderer() {
+  const std::lock_guard<std::mutex> lock(OsMesaLock());
   if (impl_) impl_->DeleteAll();
 }
 
@@ -496,6 +511,7 @@ GlImage GlRenderer::Render(const Camera& camera, const Eigen::Isometry3d& cam_fr
   }
   Impl& impl = *impl_;
   const GlFunctions& gl = impl.gl;
+  const std::lock_guard<std::mutex> lock(OsMesaLock());
   Impl::CurrentScope current(&impl);
   impl.EnsureFramebuffer(camera.width, camera.height);
 
