@@ -2,7 +2,9 @@
 /// @file gl_renderer.h
 /// Offscreen OpenGL renderer (OSMesa, llvmpipe) for templates: RGB with vertex colours or
 /// texture and simple Lambertian shading, metric depth and mask, for any K and image size.
-/// One instance owns one OSMesa context and must be used from one thread at a time.
+/// One instance owns one OSMesa context and must be used from one thread at a time;
+/// instances on different threads take turns (one process-wide lock: Mesa 22.3 crashed when
+/// two contexts drew at once).
 /// This header includes no GL headers (they collide with Open3D's).
 
 #include <memory>
