@@ -191,6 +191,11 @@ int main(int argc, char** argv) {
   int unsure_area_px = 0;
   app.add_option("--unsure-area-px", unsure_area_px,
                  "a mask's depthless pixels are unsure when they reach a depthless area outside the mask this wide (RegionOptions::unsure_area_min_px; 1 = any; default: solver's)");
+  double support_penetration = -1.0, limit_ring = -1.0;
+  app.add_option("--support-penetration", support_penetration,
+                 "a finalist reaching behind the support plane by more than this fraction of the diameter (plus the surface tolerance) is passed over (SolverOptions::support_penetration_fraction; 0 = off, ablation; default: solver's)");
+  app.add_option("--limit-ring", limit_ring,
+                 "where the mask's ring shows no support, a ring this wide (fraction of the mask box) is searched for the plane no pose may reach behind (RegionOptions::limit_ring_fraction; 0 = none; default: solver's)");
   bool support_nobodys = false;
   app.add_flag("--no-mask-on-support", support_nobodys,
                "a pixel of the mask on the support plane is nobody's: no pose is credited with it (RegionOptions::mask_decides_on_support off; ablation)");
@@ -439,6 +444,8 @@ int main(int argc, char** argv) {
     if (grow_fraction >= 0.0) options.region.grow_fraction = grow_fraction;
     if (support_nobodys) options.region.mask_decides_on_support = false;
     if (unsure_area_px > 0) options.region.unsure_area_min_px = unsure_area_px;
+    if (support_penetration >= 0.0) options.support_penetration_fraction = support_penetration;
+    if (limit_ring >= 0.0) options.region.limit_ring_fraction = limit_ring;
     if (max_search_regions >= 0) options.max_search_regions = max_search_regions;
     if (region_candidates >= 0) options.region_candidates = region_candidates;
     if (no_neighbours) options.explain_neighbours = false;
@@ -503,7 +510,8 @@ int main(int argc, char** argv) {
                    "icp_iterations,answer_set_rank,answer_quality_ratio,ppf_hypotheses,ppf_distinct,answer_from_ppf,"
                    "silhouette_hypotheses,silhouette_distinct,answer_from_silhouette,"
                    "on_surface,free_space,contour_support,mask_iou,mask_wider,mask_is_box,depth_region_chosen,"
-                   "neighbour_answer_chosen,duplicate_answer,pnp_agreement%s\n",
+                   "neighbour_answer_chosen,duplicate_answer,pnp_agreement,support_penetration_mm,finalists_behind_support,"
+                   "support_changed%s\n",
                    unknown_identity ? ",chosen_id,right_identity,true_object_score,best_other_id,best_other_score,"
                                       "candidates_solved,screened_out,identify_ms"
                                     : "");
@@ -749,7 +757,8 @@ int main(int argc, char** argv) {
           std::fprintf(records, ",%.4f,%d,%d,%d,%d,%d", result.mask_iou, s.mask_wider_than_object ? 1 : 0,
                        s.mask_is_box ? 1 : 0, s.depth_region_chosen ? 1 : 0, s.neighbour_answer_chosen ? 1 : 0,
                        s.duplicate_answer ? 1 : 0);
-          std::fprintf(records, ",%d", s.pnp_agreement);
+          std::fprintf(records, ",%d,%.1f,%d,%d", s.pnp_agreement, s.limit_plane ? s.support_penetration_m * 1000.0 : -1.0,
+                       s.finalists_behind_support, s.support_changed ? 1 : 0);
           if (unknown_identity) {
             // The true object's S and the best other object's: the margin identity was decided by.
             double true_score = 2.0, other_score = 2.0;
@@ -783,6 +792,8 @@ int main(int argc, char** argv) {
         counts["kept (K)"].push_back(s.kept_hypotheses);
         counts["merged by ICP"].push_back(s.icp_merged);
         counts["PnP poses agreeing"].push_back(s.pnp_agreement);
+        counts["finalists behind the support"].push_back(s.finalists_behind_support);
+        counts["answers moved off a pose behind the support"].push_back(s.support_changed ? 1 : 0);
         counts["point-pair vote skipped"].push_back(s.ppf_skipped ? 1 : 0);
         counts["outline poses skipped"].push_back(s.silhouette_skipped ? 1 : 0);
         counts["ICP iterations"].push_back(s.icp_iterations);

@@ -1,12 +1,16 @@
 // The mask as evidence: leaks removed by the depth (support plane, far and near), the
-// caller's word kept where the depth cannot judge, and the options' checks.
+// caller's word kept where the depth cannot judge, and the options' checks; the support
+// plane as a limit on the answer (no pose reaches behind it).
 #include "solver/region.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
+#include "solver/finalists.h"
 #include "solver/mask_stage.h"
+#include "solver/solve_context.h"
+#include "test_meshes.h"
 
 namespace g6d {
 namespace {
@@ -158,6 +162,39 @@ TEST(PrepareObservation, TheCallersMaskOnTheSupportIsNotTheScoresSupport) {
   EXPECT_LT(decided, nobodys);
 }
 
+// A part in a pile: the ring around its mask is the pile (6 px tiles at five heights 3 cm
+// apart, beyond the plane tolerance of one another, in a scrambled order: none a quarter
+// of the ring), the table shows only farther out. No support for the mask's leaks, but the
+// wider ring finds the table as the limit no pose may reach behind.
+TEST(ComputeObservedRegion, FindsTheLimitPlaneInAWiderRingAroundAPile) {
+  cv::Mat depth = SceneDepth();
+  const cv::Rect box = ObjectBox();
+  const cv::Rect pile(box.x - 30, box.y - 30, box.width + 60, box.height + 60);
+  for (int v = pile.y; v < pile.y + pile.height; ++v) {
+    for (int u = pile.x; u < pile.x + pile.width; ++u) {
+      if (box.contains(cv::Point(u, v))) continue;
+      const int tu = u / 6, tv = v / 6;
+      const int level = ((tu * 7 + tv * 13) ^ (tu * tv)) % 5;
+      depth.at<float>(v, u) = depth.at<float>(v, u) - 0.02f - 0.03f * static_cast<float>(level);
+    }
+  }
+  cv::Mat mask = cv::Mat::zeros(kHeight, kWidth, CV_8U);
+  mask(box).setTo(255);
+  const ObservedRegion region = ComputeObservedRegion(kCamera, mask, depth, 0.12, RegionOptions());
+  EXPECT_FALSE(region.has_plane);
+  EXPECT_TRUE(region.support.empty());
+  ASSERT_TRUE(region.has_limit_plane);
+  // The table: the object's face 5 cm in front of it, a table point on it.
+  const Eigen::Vector3d face = kCamera.Backproject(PixelCentre(160, 115), depth.at<float>(115, 160));
+  const Eigen::Vector3d table = kCamera.Backproject(PixelCentre(10, 230), depth.at<float>(230, 10));
+  EXPECT_GT(region.limit_plane_normal.dot(face) + region.limit_plane_offset_m, 0.03);
+  EXPECT_NEAR(region.limit_plane_normal.dot(table) + region.limit_plane_offset_m, 0.0, 0.002);
+  // Without the wider search: no limit.
+  RegionOptions narrow;
+  narrow.limit_ring_fraction = 0.0;
+  EXPECT_FALSE(ComputeObservedRegion(kCamera, mask, depth, 0.12, narrow).has_limit_plane);
+}
+
 TEST(ComputeObservedRegion, IsDeterministic) {
   const cv::Mat depth = SceneDepth();
   cv::Mat mask = cv::Mat::zeros(kHeight, kWidth, CV_8U);
@@ -166,6 +203,97 @@ TEST(ComputeObservedRegion, IsDeterministic) {
   const ObservedRegion b = ComputeObservedRegion(kCamera, mask, depth, 0.12, RegionOptions());
   EXPECT_EQ(cv::norm(a.mask, b.mask, cv::NORM_L1), 0.0);
   EXPECT_DOUBLE_EQ(a.plane_offset_m, b.plane_offset_m);
+}
+
+// A support plane facing the camera at z = 1 m (normal -z: towards the camera).
+ObservedRegion PlaneAtOneMetre() {
+  ObservedRegion region;
+  region.has_plane = region.has_limit_plane = true;
+  region.plane_normal = region.limit_plane_normal = Eigen::Vector3d(0.0, 0.0, -1.0);
+  region.plane_offset_m = region.limit_plane_offset_m = 1.0;  // -z + 1 = 0
+  region.surface_tolerance_m = 0.002;
+  return region;
+}
+
+Eigen::Isometry3d At(const Eigen::Vector3d& t, const Eigen::Matrix3d& rotation = Eigen::Matrix3d::Identity()) {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = rotation;
+  pose.translation() = t;
+  return pose;
+}
+
+TEST(DepthBehindSupport, IsHowFarTheModelReachesPastThePlane) {
+  const Mesh cube = test::MakeCube(0.05);
+  const ObservedRegion region = PlaneAtOneMetre();
+  // Resting on it: the far face on the plane; pushed 3 cm into it; in front by 1 cm.
+  EXPECT_NEAR(DepthBehindSupport(region, cube, At({0.1, -0.2, 0.95})), 0.0, 1e-9);
+  EXPECT_NEAR(DepthBehindSupport(region, cube, At({0.1, -0.2, 0.98})), 0.03, 1e-6);
+  EXPECT_NEAR(DepthBehindSupport(region, cube, At({0.0, 0.0, 0.94})), 0.0, 1e-9);
+  // Turned 45 degrees about x: the deepest corner reaches h·sqrt(2) past the centre.
+  const Eigen::Matrix3d turned = Eigen::AngleAxisd(M_PI / 4, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  EXPECT_NEAR(DepthBehindSupport(region, cube, At({0.0, 0.0, 0.95}, turned)), 0.05 * std::sqrt(2.0) - 0.05, 1e-6);
+  // No plane: no limit.
+  ObservedRegion none = region;
+  none.has_plane = none.has_limit_plane = false;
+  EXPECT_EQ(DepthBehindSupport(none, cube, At({0.0, 0.0, 1.2})), 0.0);
+}
+
+// Two finalists of a 10 x 6 x 2 cm plate: the lower S reaches 4 cm into the support, the
+// other rests on it.
+struct SupportCase {
+  TemplateBank bank;
+  Frame frame;
+  std::vector<Finalist> finalists;
+  PoseResult result;
+
+  SupportCase(double s_behind, double s_front) {
+    Mesh plate = test::MakeCube(1.0);
+    for (Eigen::Vector3f& v : plate.vertices) v = v.cwiseProduct(Eigen::Vector3f(0.05f, 0.03f, 0.01f));
+    bank.object_id = "plate";
+    bank.online_mesh = plate;
+    bank.diameter_m = ComputeDiameter(plate);
+    frame.camera = kCamera;
+    frame.rgb = cv::Mat(kHeight, kWidth, CV_8UC3, cv::Scalar(0, 0, 0));
+    frame.depth = cv::Mat(kHeight, kWidth, CV_32F, cv::Scalar(0.0f));
+    PoseScore behind, front;
+    behind.s = s_behind;
+    front.s = s_front;
+    const Eigen::Matrix3d on_edge = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitY()).toRotationMatrix();
+    finalists.push_back(Finalist{At({0.0, 0.0, 0.99}, on_edge), behind, 0});  // reaches 1 + 0.04 m
+    finalists.push_back(Finalist{At({0.0, 0.0, 0.99}), front, 1});           // far face on the plane
+  }
+
+  void Resolve(const SolverOptions& options) {
+    ResolveFinalists(options, bank, frame, cv::Mat(), PlaneAtOneMetre(), AnswerSymmetries(bank),
+                     DistancePoints(bank.online_mesh, 64), finalists, &result);
+  }
+};
+
+TEST(ResolveFinalists, PassesOverAPoseBehindTheSupport) {
+  SupportCase c(0.05, 0.07);
+  SolverOptions options;
+  c.Resolve(options);
+  EXPECT_EQ(c.result.stages.answer_hypothesis, 1);
+  EXPECT_TRUE(c.result.stages.support_changed);
+  EXPECT_EQ(c.result.stages.finalists_behind_support, 1);
+  EXPECT_NEAR(c.result.stages.support_penetration_m, 0.0, 1e-6);
+  // The pose behind the support is no rival: the answer is not ambiguous for it.
+  EXPECT_FALSE(c.result.has_runner_up);
+  EXPECT_FALSE(c.result.ambiguous);
+}
+
+TEST(ResolveFinalists, KeepsTheLowestSWhenTheSupportCheckIsOffOrNoPoseIsCloseInS) {
+  SupportCase off(0.05, 0.07);
+  SolverOptions options;
+  options.support_penetration_fraction = 0.0;
+  off.Resolve(options);
+  EXPECT_EQ(off.result.stages.answer_hypothesis, 0);
+  EXPECT_TRUE(off.result.ambiguous);  // the other within ambiguity_margin
+  SupportCase far(0.05, 0.05 + SolverOptions().support_margin + 0.01);
+  far.Resolve(SolverOptions());
+  EXPECT_EQ(far.result.stages.answer_hypothesis, 0);
+  EXPECT_FALSE(far.result.stages.support_changed);
+  EXPECT_NEAR(far.result.stages.support_penetration_m, 0.04, 1e-6);
 }
 
 TEST(RegionOptions, CheckNamesTheBadField) {

@@ -9,9 +9,22 @@
 
 namespace g6d {
 
+double DepthBehindSupport(const ObservedRegion& region, const Mesh& mesh, const Eigen::Isometry3d& cam_from_object) {
+  if (!region.has_limit_plane) return 0.0;
+  // The plane's normal points to the camera's side: n · p + offset < 0 lies behind it.
+  const Eigen::Vector3d normal_in_object = cam_from_object.linear().transpose() * region.limit_plane_normal;
+  const double offset = region.limit_plane_offset_m + region.limit_plane_normal.dot(cam_from_object.translation());
+  double deepest = 0.0;
+  for (const Eigen::Vector3f& vertex : mesh.vertices) {
+    deepest = std::max(deepest, -(normal_in_object.dot(vertex.cast<double>()) + offset));
+  }
+  return deepest;
+}
+
 void ResolveFinalists(const SolverOptions& options, const TemplateBank& bank, const Frame& frame, const cv::Mat& mask,
-                      const MeshSymmetries& symmetries, const std::vector<Eigen::Vector3d>& distance_points,
-                      std::vector<Finalist> finalists, PoseResult* result) {
+                      const ObservedRegion& region, const MeshSymmetries& symmetries,
+                      const std::vector<Eigen::Vector3d>& distance_points, std::vector<Finalist> finalists,
+                      PoseResult* result) {
   StageReport& stages = result->stages;
   std::stable_sort(finalists.begin(), finalists.end(),
                    [](const Finalist& a, const Finalist& b) { return a.score.s < b.score.s; });
@@ -25,6 +38,29 @@ void ResolveFinalists(const SolverOptions& options, const TemplateBank& bank, co
     if (is_new) distinct.push_back(f);
   }
   stages.distinct_finalists = static_cast<int>(distinct.size());
+  // The support: a finalist reaching behind it is impossible; the best possible one within
+  // support_margin of the best S moves to the front (the others keep their order).
+  std::vector<double> behind(distinct.size(), 0.0);
+  std::vector<bool> impossible(distinct.size(), false);
+  if (options.support_penetration_fraction > 0.0 && region.has_limit_plane) {
+    const double limit_m = options.support_penetration_fraction * bank.diameter_m + region.surface_tolerance_m;
+    for (size_t k = 0; k < distinct.size(); ++k) {
+      behind[k] = DepthBehindSupport(region, bank.online_mesh, distinct[k].cam_from_object);
+      impossible[k] = behind[k] > limit_m;
+      stages.finalists_behind_support += impossible[k] ? 1 : 0;
+    }
+    for (size_t k = 1; k < distinct.size() && impossible[0]; ++k) {
+      if (impossible[k] || distinct[k].score.s > distinct[0].score.s + options.support_margin) continue;
+      std::rotate(distinct.begin(), distinct.begin() + static_cast<std::ptrdiff_t>(k), distinct.begin() + static_cast<std::ptrdiff_t>(k) + 1);
+      std::rotate(behind.begin(), behind.begin() + static_cast<std::ptrdiff_t>(k), behind.begin() + static_cast<std::ptrdiff_t>(k) + 1);
+      const bool moved = impossible[k];
+      impossible.erase(impossible.begin() + static_cast<std::ptrdiff_t>(k));
+      impossible.insert(impossible.begin(), moved);
+      stages.support_changed = true;
+    }
+  }
+  // A finalist behind the support is no rival of one in front of it.
+  auto rival = [&](size_t k, size_t of) { return !impossible[k] || impossible[of]; };
   size_t chosen = 0;
   std::vector<AppearanceScore> appearance(distinct.size());
   if (options.appearance_tiebreak && !bank.appearance.Empty()) {
@@ -37,7 +73,8 @@ void ResolveFinalists(const SolverOptions& options, const TemplateBank& bank, co
     // Only a valid comparison can overrule S: a pose whose visible model colours are
     // uniform (invalid score) is neither better nor worse in appearance.
     for (size_t k = 1; k < distinct.size() && appearance[0].valid; ++k) {
-      if (appearance[k].valid && appearance[k].agreement > appearance[chosen].agreement + options.appearance_min_gain) {
+      if (rival(k, 0) && appearance[k].valid &&
+          appearance[k].agreement > appearance[chosen].agreement + options.appearance_min_gain) {
         chosen = k;
       }
     }
@@ -48,12 +85,13 @@ void ResolveFinalists(const SolverOptions& options, const TemplateBank& bank, co
   stages.answer_hypothesis = distinct[chosen].hypothesis;
   result->appearance_valid = appearance[chosen].valid;
   result->appearance_agreement = appearance[chosen].agreement;
+  stages.support_penetration_m = behind[chosen];
   // Runner-up: the best distinct finalist by S that is not the answer moved by a
   // symmetry of the shape (a printed box's flip that appearance cannot tell apart is the
   // same shape: a symmetry, reported at build time, not an ambiguity).
   const MeshSymmetries shape_symmetries = ShapeSymmetries(bank);
   for (size_t k = 0; k < distinct.size(); ++k) {
-    if (k == chosen) continue;
+    if (k == chosen || !rival(k, chosen)) continue;
     if (SymmetricPoseDistance(shape_symmetries, distance_points, distinct[k].cam_from_object, distinct[chosen].cam_from_object) <=
         same_m) {
       continue;
@@ -118,8 +156,8 @@ void RunFinalistStage(const SolveContext& c, const MhpoTarget& target, std::vect
     }
   }
   if (!c.clock->OutOfTime()) {
-    ResolveFinalists(c.options, c.bank, c.frame, c.observation.mask, c.comparer.symmetries(), c.comparer.points(),
-                     std::move(finalists), result);
+    ResolveFinalists(c.options, c.bank, c.frame, c.observation.mask, c.observation.region, c.comparer.symmetries(),
+                     c.comparer.points(), std::move(finalists), result);
   }
   stages.flip_answer = stages.flips_checked > 0 && !result->cam_from_object.isApprox(first);
   stages.finalists_ms = watch.ElapsedMs();

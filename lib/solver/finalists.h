@@ -12,6 +12,7 @@
 #include "core/frame.h"
 #include "solver/match.h"
 #include "solver/mhpo.h"
+#include "solver/region.h"
 #include "solver/result.h"
 #include "solver/score.h"
 #include "solver/solve_context.h"
@@ -27,12 +28,20 @@ struct Finalist {
   int hypothesis = -1;  // index of the kept hypothesis it came from; -1 = none (stage 6)
 };
 
+/// How far `mesh` at `cam_from_object` reaches behind the limit plane of `region` (its
+/// support plane, or one in a wider ring; metres: the deepest vertex's distance on the far
+/// side; 0 when none or no plane).
+double DepthBehindSupport(const ObservedRegion& region, const Mesh& mesh, const Eigen::Isometry3d& cam_from_object);
+
 /// Among the finalists (T_A last): drops poses equal modulo the symmetries to a better one,
-/// lets appearance pick among those within options.appearance_margin of the best S, and
-/// sets the runner-up and the ambiguity flag of *result (whose T_A and details it may replace).
+/// passes over those that reach behind the support plane of `region` (SolverOptions::
+/// support_penetration_fraction), lets appearance pick among those within
+/// options.appearance_margin of the best S, and sets the runner-up and the ambiguity flag
+/// of *result (whose T_A and details it may replace).
 void ResolveFinalists(const SolverOptions& options, const TemplateBank& bank, const Frame& frame, const cv::Mat& mask,
-                      const MeshSymmetries& symmetries, const std::vector<Eigen::Vector3d>& distance_points,
-                      std::vector<Finalist> finalists, PoseResult* result);
+                      const ObservedRegion& region, const MeshSymmetries& symmetries,
+                      const std::vector<Eigen::Vector3d>& distance_points, std::vector<Finalist> finalists,
+                      PoseResult* result);
 
 /// The finalists (T_A last, as stage 6 may have moved it): symmetric duplicates merged,
 /// appearance tie-break, runner-up and ambiguity; then where the answer came from.

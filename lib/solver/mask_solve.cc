@@ -27,6 +27,7 @@ void ReportObservation(const Observation& observation, PoseResult* result) {
   stages.mask_support_leak = observation.region.support_leak;
   stages.mask_far_leak = observation.region.far_leak;
   stages.support_plane = observation.region.has_plane;
+  stages.limit_plane = observation.region.has_limit_plane;
   stages.surface_tolerance_m = observation.region.surface_tolerance_m;
   stages.mask_wider_than_object = observation.wider_than_object;
   stages.mask_is_box = observation.is_box;

@@ -35,6 +35,7 @@ std::string RegionOptions::Check() const {
   else if (!(noise_sigmas > 0.0 && noise_sigmas <= 10.0)) out << "RegionOptions.noise_sigmas must be in (0, 10] (got " << noise_sigmas << ")";
   else if (!(pose_tolerance_fraction >= 0.0 && pose_tolerance_fraction <= 0.5)) out << "RegionOptions.pose_tolerance_fraction must be in [0, 0.5] (got " << pose_tolerance_fraction << ")";
   else if (!(ring_fraction > 0.0 && ring_fraction <= 2.0)) out << "RegionOptions.ring_fraction must be in (0, 2] (got " << ring_fraction << ")";
+  else if (!(limit_ring_fraction >= 0.0 && limit_ring_fraction <= 5.0)) out << "RegionOptions.limit_ring_fraction must be in [0, 5] (got " << limit_ring_fraction << ")";
   else if (plane_iterations < 1) out << "RegionOptions.plane_iterations must be >= 1 (got " << plane_iterations << ")";
   else if (plane_samples < 3) out << "RegionOptions.plane_samples must be >= 3 (got " << plane_samples << ")";
   else if (!(min_plane_fraction > 0.0 && min_plane_fraction <= 1.0)) out << "RegionOptions.min_plane_fraction must be in (0, 1] (got " << min_plane_fraction << ")";
@@ -169,50 +170,69 @@ ObservedRegion ComputeObservedRegion(const Camera& camera, const cv::Mat& mask, 
   // are quantized to about that).
   const double plane_tolerance_m = std::max(noise_m, 1e-3);
 
-  // ---- the support plane, fitted to the valid depth around the mask
-  const int ring = static_cast<int>(std::ceil(options.ring_fraction * std::max(box.width, box.height)));
-  const cv::Rect roi = cv::Rect(box.x - ring, box.y - ring, box.width + 2 * ring, box.height + 2 * ring) &
-                       cv::Rect(0, 0, mask.cols, mask.rows);
-  int ring_valid = 0;
-  for (int v = roi.y; v < roi.y + roi.height; ++v) {
-    const uint8_t* m = region.mask.ptr<uint8_t>(v);
-    const float* d = depth.ptr<float>(v);
-    for (int u = roi.x; u < roi.x + roi.width; ++u) ring_valid += !m[u] && d[u] > 0.0f && std::isfinite(d[u]);
-  }
-  Plane plane;
-  if (ring_valid >= options.min_plane_points) {
-    const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(ring_valid) / options.plane_samples))));
-    std::vector<Eigen::Vector3d> ring_points;
-    for (int v = roi.y + stride / 2; v < roi.y + roi.height; v += stride) {
+  // ---- the support plane, fitted to the valid depth around the mask: in a ring of
+  // `ring_fraction` of the box's longer side on each side; the plane and the ring's box when
+  // one is the support.
+  auto find_support = [&](double ring_fraction, Plane* plane, cv::Rect* roi) {
+    const int ring = static_cast<int>(std::ceil(ring_fraction * std::max(box.width, box.height)));
+    *roi = cv::Rect(box.x - ring, box.y - ring, box.width + 2 * ring, box.height + 2 * ring) &
+           cv::Rect(0, 0, mask.cols, mask.rows);
+    int ring_valid = 0;
+    for (int v = roi->y; v < roi->y + roi->height; ++v) {
       const uint8_t* m = region.mask.ptr<uint8_t>(v);
       const float* d = depth.ptr<float>(v);
-      for (int u = roi.x + stride / 2; u < roi.x + roi.width; u += stride) {
+      for (int u = roi->x; u < roi->x + roi->width; ++u) ring_valid += !m[u] && d[u] > 0.0f && std::isfinite(d[u]);
+    }
+    if (ring_valid < options.min_plane_points) return false;
+    const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(ring_valid) / options.plane_samples))));
+    std::vector<Eigen::Vector3d> ring_points;
+    for (int v = roi->y + stride / 2; v < roi->y + roi->height; v += stride) {
+      const uint8_t* m = region.mask.ptr<uint8_t>(v);
+      const float* d = depth.ptr<float>(v);
+      for (int u = roi->x + stride / 2; u < roi->x + roi->width; u += stride) {
         if (!m[u] && d[u] > 0.0f && std::isfinite(d[u])) ring_points.push_back(camera.Backproject(PixelCentre(u, v), d[u]));
       }
     }
     int inliers = 0;
-    if (ring_points.size() >= 3) plane = DominantPlane(ring_points, plane_tolerance_m, options, &inliers);
+    if (ring_points.size() >= 3) *plane = DominantPlane(ring_points, plane_tolerance_m, options, &inliers);
     // A support fills much of the ring, not just much of its valid depth (a neighbour's
     // face beside an object whose surroundings have no depth is no support).
-    const double ring_pixels = static_cast<double>(roi.area() - cv::countNonZero(region.mask(roi)));
+    const double ring_pixels = static_cast<double>(roi->area() - cv::countNonZero(region.mask(*roi)));
     const double sampled_fraction = static_cast<double>(inliers) / std::max<size_t>(1, ring_points.size());
     const bool large = inliers >= options.min_plane_points &&
                        sampled_fraction * ring_valid >= options.min_plane_fraction * ring_pixels;
-    if (large) {
-      // The object stands in front of its support: a fifth of the mask's points at least
-      // lie clearly on the camera side of the plane (a plane through the object's own
-      // face, or one in front of it, is no support).
-      int in_front = 0, counted = 0;
-      for (int v = box.y; v < box.y + box.height; v += stride) {
-        const uint8_t* m = region.mask.ptr<uint8_t>(v);
-        const float* d = depth.ptr<float>(v);
-        for (int u = box.x; u < box.x + box.width; u += stride) {
-          if (!m[u] || !(d[u] > 0.0f) || !std::isfinite(d[u])) continue;
-          ++counted;
-          in_front += plane.Distance(camera.Backproject(PixelCentre(u, v), d[u])) > 2.0 * plane_tolerance_m;
-        }
+    if (!large) return false;
+    // The object stands in front of its support: a fifth of the mask's points at least
+    // lie clearly on the camera side of the plane (a plane through the object's own
+    // face, or one in front of it, is no support).
+    int in_front = 0, counted = 0;
+    for (int v = box.y; v < box.y + box.height; v += stride) {
+      const uint8_t* m = region.mask.ptr<uint8_t>(v);
+      const float* d = depth.ptr<float>(v);
+      for (int u = box.x; u < box.x + box.width; u += stride) {
+        if (!m[u] || !(d[u] > 0.0f) || !std::isfinite(d[u])) continue;
+        ++counted;
+        in_front += plane->Distance(camera.Backproject(PixelCentre(u, v), d[u])) > 2.0 * plane_tolerance_m;
       }
-      region.has_plane = counted > 0 && in_front >= 0.2 * counted;
+    }
+    return counted > 0 && in_front >= 0.2 * counted;
+  };
+  Plane plane;
+  cv::Rect roi;
+  region.has_plane = find_support(options.ring_fraction, &plane, &roi);
+  if (region.has_plane) {
+    region.has_limit_plane = true;
+    region.limit_plane_normal = plane.normal;
+    region.limit_plane_offset_m = plane.offset;
+  } else if (options.limit_ring_fraction > options.ring_fraction) {
+    // Crowded surroundings (a bin's pile) hide the support in the ring; a wider ring may
+    // show it. Only a limit on the poses: the mask's leaks are judged in the ring alone.
+    Plane wide;
+    cv::Rect wide_roi;
+    if (find_support(options.limit_ring_fraction, &wide, &wide_roi)) {
+      region.has_limit_plane = true;
+      region.limit_plane_normal = wide.normal;
+      region.limit_plane_offset_m = wide.offset;
     }
   }
 

@@ -47,6 +47,10 @@ struct RegionOptions {
   /// The support plane is fitted to the valid depth in a ring around the mask box, this
   /// fraction of the box's longer side wide on each side.
   double ring_fraction = 0.5;
+  /// Where the ring shows no support, a ring this wide is searched for one, only as the
+  /// limit no pose may reach behind (ObservedRegion::has_limit_plane); <= ring_fraction =
+  /// no second search.
+  double limit_ring_fraction = 1.5;
   /// RANSAC over at most `plane_samples` ring points for `plane_iterations` iterations.
   int plane_iterations = 150;
   int plane_samples = 2000;
@@ -99,6 +103,13 @@ struct ObservedRegion {
   /// unit normal pointing towards the camera side (where the object is).
   Eigen::Vector3d plane_normal = Eigen::Vector3d::UnitZ();
   double plane_offset_m = 0.0;
+  /// The plane no pose of the object may reach behind (SolverOptions::
+  /// support_penetration_fraction): the support plane, or where the ring showed none, one
+  /// found the same way in a wider ring (RegionOptions::limit_ring_fraction). Same
+  /// convention as the support plane.
+  bool has_limit_plane = false;
+  Eigen::Vector3d limit_plane_normal = Eigen::Vector3d::UnitZ();
+  double limit_plane_offset_m = 0.0;
   /// A depth within this of a rendered surface lies on it (metres): noise_sigmas · σ(z) at
   /// the mask's median depth plus pose_tolerance_fraction · diameter.
   double surface_tolerance_m = 0.0;

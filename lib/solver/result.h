@@ -110,6 +110,14 @@ struct StageReport {
   bool appearance_changed = false;    ///< appearance replaced the lowest-S pose as T_A
   int flips_checked = 0;              ///< T_A's flips refined and compared (SolverOptions::check_flips)
   bool flip_answer = false;           ///< a flip of the first T_A fitted better and is the answer
+  /// The support check (SolverOptions::support_penetration_fraction): how far the answer's
+  /// model reaches behind the support plane under the mask (metres; 0 in front of it or
+  /// with no plane), how many distinct finalists reach behind it past the limit, and
+  /// whether the check passed over a lower-S finalist for the answer.
+  double support_penetration_m = 0.0;
+  bool limit_plane = false;  ///< a plane limited the poses (ObservedRegion::has_limit_plane)
+  int finalists_behind_support = 0;
+  bool support_changed = false;
   bool post_refine_ran = false;       ///< stage 6 was triggered
   bool post_refine_accepted = false;  ///< and replaced T_A
   /// Best pose after each stage, for per-stage recall (seed, pnp, observable, icp, mhpo);

@@ -45,6 +45,8 @@ std::string SolverOptions::Check() const {
   else if (!(ambiguity_margin >= 0.0 && ambiguity_margin < 2.0)) out << "SolverOptions.ambiguity_margin must be in [0, 2) (got " << ambiguity_margin << ")";
   else if (!(appearance_margin >= 0.0 && appearance_margin < 2.0)) out << "SolverOptions.appearance_margin must be in [0, 2) (got " << appearance_margin << ")";
   else if (!(appearance_min_gain >= 0.0 && appearance_min_gain <= 2.0)) out << "SolverOptions.appearance_min_gain must be in [0, 2] (got " << appearance_min_gain << ")";
+  else if (!(support_penetration_fraction >= 0.0 && support_penetration_fraction <= 10.0)) out << "SolverOptions.support_penetration_fraction must be in [0, 10] (got " << support_penetration_fraction << ")";
+  else if (!(support_margin >= 0.0 && support_margin <= 2.0)) out << "SolverOptions.support_margin must be in [0, 2] (got " << support_margin << ")";
   else if (!std::isfinite(budget_ms)) out << "SolverOptions.budget_ms must be finite (got " << budget_ms << ")";
   else if (!(confidence_score_weight < 0.0)) out << "SolverOptions.confidence_score_weight must be < 0 (got " << confidence_score_weight << ")";
   else if (!std::isfinite(confidence_bias) || !std::isfinite(confidence_ambiguous_weight)) out << "SolverOptions.confidence_bias and confidence_ambiguous_weight must be finite";

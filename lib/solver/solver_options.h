@@ -252,6 +252,16 @@ struct SolverOptions {
   /// T_A's by more than `appearance_min_gain`.
   bool appearance_tiebreak = true;
   double appearance_margin = 0.05;
+  /// Physical consistency with the support: an object rests on or stands above the surface
+  /// under it (the support plane fitted around the mask, ObservedRegion), never inside it.
+  /// A distinct finalist whose model reaches behind that plane by more than this fraction of
+  /// the diameter plus the mask's surface tolerance is no pose of the object: when the
+  /// lowest-S finalist does, the lowest-S finalist that does not (at most `support_margin`
+  /// above it in S) is the answer, and such finalists are no runner-up. A bare bracket seen
+  /// from one side fits its flip, whose unseen flange then points into the table, as well
+  /// as its true pose. 0 = off.
+  double support_penetration_fraction = 0.1;
+  double support_margin = 0.1;
   double appearance_min_gain = 0.1;
   AppearanceOptions appearance;  ///< visibility and measure of the agreement
   /// The confidence of an answer to a mask (PoseResult::confidence): a logistic in S_A, the

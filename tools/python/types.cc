@@ -142,6 +142,10 @@ py::dict StagesDict(const StageReport& s) {
   d["silhouette_skipped"] = s.silhouette_skipped;
   d["flips_checked"] = s.flips_checked;
   d["flip_answer"] = s.flip_answer;
+  d["support_penetration_m"] = s.support_penetration_m;
+  d["limit_plane"] = s.limit_plane;
+  d["finalists_behind_support"] = s.finalists_behind_support;
+  d["support_changed"] = s.support_changed;
   d["icp_merged"] = s.icp_merged;
   d["icp_iterations"] = s.icp_iterations;
   d["icp_runs_at_max"] = s.icp_runs_at_max;
@@ -247,7 +251,7 @@ void BindOptions(py::module_& module) {
     using T = RegionOptions;
     OptionsClass<T>(module, "RegionOptions", "The depth's check of the mask, mask_trust DEPTH (solver/region.h).")
         G6D_FIELD(sensor_noise_at_1m) G6D_FIELD(noise_sigmas) G6D_FIELD(pose_tolerance_fraction)
-        G6D_FIELD(ring_fraction) G6D_FIELD(plane_iterations) G6D_FIELD(plane_samples) G6D_FIELD(min_plane_fraction)
+        G6D_FIELD(ring_fraction) G6D_FIELD(limit_ring_fraction) G6D_FIELD(plane_iterations) G6D_FIELD(plane_samples) G6D_FIELD(min_plane_fraction)
         G6D_FIELD(min_plane_points) G6D_FIELD(far_fraction) G6D_FIELD(grow_fraction) G6D_FIELD(mask_decides_on_support)
         G6D_FIELD(unsure_area_min_px) G6D_FIELD(seed).Done();
   }
@@ -356,6 +360,7 @@ void BindOptions(py::module_& module) {
         G6D_FIELD(pnp_min_quality_ratio) G6D_FIELD(cull_backfaces) G6D_FIELD(coarse_selection_mesh)
         G6D_FIELD(ambiguity_distance_fraction) G6D_FIELD(ambiguity_margin) G6D_FIELD(appearance_tiebreak)
         G6D_FIELD(appearance_margin) G6D_FIELD(appearance_min_gain) G6D_FIELD(appearance)
+        G6D_FIELD(support_penetration_fraction) G6D_FIELD(support_margin)
         G6D_FIELD(confidence) G6D_FIELD(wide_mask_confidence) G6D_FIELD(check_surface_fraction) G6D_FIELD(check_step_m)
         G6D_FIELD(confidence_bias) G6D_FIELD(confidence_score_weight) G6D_FIELD(confidence_ambiguous_weight).Done();
   }

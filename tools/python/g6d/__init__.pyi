@@ -60,6 +60,7 @@ class RegionOptions(_Options):
     noise_sigmas: float
     pose_tolerance_fraction: float
     ring_fraction: float
+    limit_ring_fraction: float
     plane_iterations: int
     plane_samples: int
     min_plane_fraction: float
@@ -250,6 +251,8 @@ class SolverOptions(_Options):
     appearance_margin: float
     appearance_min_gain: float
     appearance: AppearanceOptions
+    support_penetration_fraction: float
+    support_margin: float
     confidence: ConfidenceWeights
     wide_mask_confidence: ConfidenceWeights
     check_surface_fraction: float
