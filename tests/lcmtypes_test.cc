@@ -174,9 +174,9 @@ TEST(PoseArray, TrackingFieldsRoundTripAndChangeTheFingerprints) {
   EXPECT_EQ(decoded.estimates[0].track_id, 12);
   EXPECT_EQ(decoded.estimates[1].mode, +g6d::pose_estimate_t::MODE_TRACKED);
   EXPECT_EQ(decoded.estimates[1].frames_since_detection, 29);
-  EXPECT_EQ(g6d::pose_estimate_t::MODE_DETECTED, 0);
-  EXPECT_EQ(g6d::pose_estimate_t::MODE_TRACKED, 1);
-  EXPECT_EQ(g6d::pose_estimate_t::MODE_REDETECTED, 2);
+  EXPECT_EQ(+g6d::pose_estimate_t::MODE_DETECTED, 0);
+  EXPECT_EQ(+g6d::pose_estimate_t::MODE_TRACKED, 1);
+  EXPECT_EQ(+g6d::pose_estimate_t::MODE_REDETECTED, 2);
 }
 
 // The fingerprints of g6d.rgbd_frame_t and g6d.pose_array_t before box and
