@@ -51,11 +51,12 @@ void ResolveFinalists(const SolverOptions& options, const TemplateBank& bank, co
     }
     for (size_t k = 1; k < distinct.size() && impossible[0]; ++k) {
       if (impossible[k] || distinct[k].score.s > distinct[0].score.s + options.support_margin) continue;
-      std::rotate(distinct.begin(), distinct.begin() + static_cast<std::ptrdiff_t>(k), distinct.begin() + static_cast<std::ptrdiff_t>(k) + 1);
-      std::rotate(behind.begin(), behind.begin() + static_cast<std::ptrdiff_t>(k), behind.begin() + static_cast<std::ptrdiff_t>(k) + 1);
-      const bool moved = impossible[k];
-      impossible.erase(impossible.begin() + static_cast<std::ptrdiff_t>(k));
-      impossible.insert(impossible.begin(), moved);
+      const auto to_front = [k](auto& v) {
+        std::rotate(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.begin() + static_cast<std::ptrdiff_t>(k) + 1);
+      };
+      to_front(distinct);
+      to_front(behind);
+      to_front(impossible);
       stages.support_changed = true;
     }
   }

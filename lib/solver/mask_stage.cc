@@ -42,6 +42,8 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
     // A box's outline is not the object's: a depthless area inside it may be anything.
     RegionOptions region_options = options.region;
     if (observation->is_box) region_options.unsure_area_min_px = 1;
+    // The wider ring's plane serves only as the support limit: no search when it is off.
+    if (!(options.support_penetration_fraction > 0.0)) region_options.limit_ring_fraction = 0.0;
     observation->region = ComputeObservedRegion(frame.camera, observation->mask, depth, diameter_m, region_options);
     observation->mask = observation->region.mask;
     observation->box = cv::boundingRect(observation->mask);
