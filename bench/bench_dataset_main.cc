@@ -348,6 +348,9 @@ int main(int argc, char** argv) {
   app.add_option("--detect-passes", detect_options.explain_away_passes,
                  "--masks none: explaining-away passes after the first (answers' pixels taken out, the rest solved again)")
       ->capture_default_str();
+  app.add_option("--detect-refuse-behind-support", detect_options.refuse_behind_support,
+                 "--masks none: an answer whose model reaches behind the support under its region is no answer")
+      ->capture_default_str();
   app.add_option("--detect-found-passes", detect_options.found_object_passes,
                  "--masks none: further passes for the objects already found that want more")
       ->capture_default_str();

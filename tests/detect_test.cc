@@ -657,6 +657,13 @@ TEST(DetectionConfidence, RisesWithWhatTheFrameConfirmsAndFallsWithS) {
   FrameCheck seen_through = check;
   seen_through.free_space = 0.4;  // the camera sees the table through 40% of it
   EXPECT_LT(DetectionConfidence(options, result, seen_through, 0.8, 0.5), base - 0.2);
+  // An answer inside the support under it is no answer, unless that rule is off.
+  PoseResult inside = result;
+  inside.stages.answer_behind_support = true;
+  EXPECT_EQ(DetectionConfidence(options, inside, check, 0.8, 0.5), 0.0);
+  DetectOptions lenient = options;
+  lenient.refuse_behind_support = false;
+  EXPECT_EQ(DetectionConfidence(lenient, inside, check, 0.8, 0.5), base);
 }
 
 // A region whose colours are not the model's (an object asked for that is not there, found

@@ -277,6 +277,7 @@ TEST(ResolveFinalists, PassesOverAPoseBehindTheSupport) {
   EXPECT_TRUE(c.result.stages.support_changed);
   EXPECT_EQ(c.result.stages.finalists_behind_support, 1);
   EXPECT_NEAR(c.result.stages.support_penetration_m, 0.0, 1e-6);
+  EXPECT_FALSE(c.result.stages.answer_behind_support);
   // The pose behind the support is no rival: the answer is not ambiguous for it.
   EXPECT_FALSE(c.result.has_runner_up);
   EXPECT_FALSE(c.result.ambiguous);
@@ -294,6 +295,8 @@ TEST(ResolveFinalists, KeepsTheLowestSWhenTheSupportCheckIsOffOrNoPoseIsCloseInS
   EXPECT_EQ(far.result.stages.answer_hypothesis, 0);
   EXPECT_FALSE(far.result.stages.support_changed);
   EXPECT_NEAR(far.result.stages.support_penetration_m, 0.04, 1e-6);
+  EXPECT_TRUE(far.result.stages.answer_behind_support);  // nothing in front was close in S
+  EXPECT_FALSE(off.result.stages.answer_behind_support);  // not checked
 }
 
 TEST(RegionOptions, CheckNamesTheBadField) {

@@ -378,6 +378,7 @@ void CheckIdentities(const Frame& frame, const std::vector<DetectRequest>& reque
 double DetectionConfidence(const DetectOptions& options, const PoseResult& result, const FrameCheck& check,
                            double region_iou, double colour_term) {
   if (!std::isfinite(result.score)) return 0.0;
+  if (options.refuse_behind_support && result.stages.answer_behind_support) return 0.0;
   const double logit = options.confidence_bias + options.confidence_score_weight * result.score +
                        (result.ambiguous ? options.confidence_ambiguous_weight : 0.0) +
                        options.confidence_on_surface_weight * check.on_surface +

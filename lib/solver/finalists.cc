@@ -87,6 +87,7 @@ void ResolveFinalists(const SolverOptions& options, const TemplateBank& bank, co
   result->appearance_valid = appearance[chosen].valid;
   result->appearance_agreement = appearance[chosen].agreement;
   stages.support_penetration_m = behind[chosen];
+  stages.answer_behind_support = impossible[chosen];
   // Runner-up: the best distinct finalist by S that is not the answer moved by a
   // symmetry of the shape (a printed box's flip that appearance cannot tell apart is the
   // same shape: a symmetry, reported at build time, not an ambiguity).

@@ -314,6 +314,7 @@ class DetectOptions(_Options):
     fill_gap_px: int
     explain_away_passes: int
     found_object_passes: int
+    refuse_behind_support: bool
     max_solve_hypotheses: int
     solve_pnp_min_quality: float
     solve_silhouettes: bool
