@@ -621,6 +621,9 @@ TEST(DetectOptions, CheckNamesTheBadField) {
   options.found_object_passes = -1;
   EXPECT_NE(options.Check().find("found_object_passes"), std::string::npos);
   options = DetectOptions();
+  options.sure_first_confidence = -0.1;
+  EXPECT_NE(options.Check().find("sure_first_confidence"), std::string::npos);
+  options = DetectOptions();
   options.max_solve_hypotheses = -1;
   EXPECT_NE(options.Check().find("max_solve_hypotheses"), std::string::npos);
   options = DetectOptions();
@@ -682,6 +685,52 @@ TEST(DetectionConfidence, FallsWhenTheRegionsColourIsNotTheModels) {
   EXPECT_LT(unlike, uncoloured - 0.2);
   EXPECT_GT(uncoloured, options.min_confidence);
   EXPECT_GT(alike, uncoloured);
+}
+
+// Answers of one object wanted once, on different pixels: a sure one (confidence at least
+// sure_first_confidence) claims the slot before an unsure one of lower S_A (a pose can fit a
+// few pixels closely, e.g. one mostly beyond the image); among sure answers S_A decides. With
+// sure_first_confidence above 1, S_A alone. An answer sharing most of its pixels with one
+// kept, or below min_confidence, is suppressed either way.
+TEST(SelectAnswers, ASureAnswerClaimsItsSlotBeforeAnUnsureOne) {
+  Frame frame;
+  frame.depth = cv::Mat(30, 40, CV_32F, cv::Scalar(0.8f));
+  std::vector<DetectRequest> requests(2);
+  requests[0].count = 1;
+  requests[1].count = 2;
+  auto answer = [&](int request, double score, double confidence, cv::Rect pixels) {
+    Detection d;
+    d.request = request;
+    d.result.success = true;
+    d.result.score = score;
+    d.result.confidence = confidence;
+    d.result.corrected_mask = cv::Mat::zeros(frame.depth.size(), CV_8U);
+    d.result.corrected_mask(pixels).setTo(255);
+    d.check.on_surface = 0.9;
+    d.check.contour_support = 0.9;
+    return d;
+  };
+  const std::vector<Detection> solved = {
+      answer(0, 0.05, 0.70, cv::Rect(0, 0, 10, 10)),    // lowest S, unsure
+      answer(0, 0.09, 0.95, cv::Rect(20, 0, 10, 10)),   // sure
+      answer(0, 0.08, 0.92, cv::Rect(30, 0, 10, 10)),   // sure, lower S: this one
+      answer(1, 0.06, 0.93, cv::Rect(0, 15, 10, 10)),
+      answer(1, 0.07, 0.99, cv::Rect(2, 17, 10, 10)),   // most of its pixels are the one above's
+      answer(1, 0.04, 0.30, cv::Rect(25, 15, 10, 10)),  // below min_confidence
+  };
+  DetectOptions options;
+  int suppressed = -1;
+  std::vector<Detection> kept = SelectAnswers(frame, requests, options, solved, &suppressed);
+  ASSERT_EQ(kept.size(), 2u);
+  EXPECT_EQ(suppressed, 4);
+  EXPECT_EQ(kept[0].result.score, 0.06);
+  EXPECT_EQ(kept[1].result.score, 0.08);
+  options.sure_first_confidence = 1.5;  // S_A alone
+  kept = SelectAnswers(frame, requests, options, solved, &suppressed);
+  ASSERT_EQ(kept.size(), 2u);
+  EXPECT_EQ(suppressed, 4);
+  EXPECT_EQ(kept[0].result.score, 0.05);
+  EXPECT_EQ(kept[1].result.score, 0.06);
 }
 
 // Which answers on a mask are unsure is a threshold on S_A (stricter when ambiguous), so

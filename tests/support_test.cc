@@ -129,6 +129,46 @@ TEST(FindSupport, APlateLyingFlatOnTheFloorIsNotTakenAwayWithIt) {
   EXPECT_GT(FractionWithDepthIn(scene, scene.plate, support), 0.9);
 }
 
+// The planes FindSupport removed face the camera; an answer's model is measured against the
+// one holding most of the ring around its region: a cube standing on the floor reaches
+// nothing behind it, one with its centre 2 cm below the floor reaches 4.5 cm (2 cm and half
+// its side); a plane holding only a strip of the ring (a wall beside the region) is no
+// support under it.
+TEST(FindSupport, ItsPlanesFaceTheCameraAndTellHowFarAModelReachesBehindThem) {
+  const FloorScene scene = MakeScene(0.003);
+  cv::Mat support;
+  std::vector<SupportPlane> planes;
+  ASSERT_EQ(FindSupport(scene.frame, DetectOptions(), 0.1, &support, nullptr, &planes), 1);
+  ASSERT_EQ(planes.size(), 1u);
+  EXPECT_GT(planes[0].plane.normal.dot(kUp), 0.999);
+  EXPECT_GT(planes[0].plane.offset, 0.0);
+  EXPECT_EQ(cv::countNonZero(planes[0].pixels != support), 0);
+  Mesh cube;  // 5 cm, centred on its origin
+  for (int i = 0; i < 8; ++i) {
+    cube.vertices.emplace_back(i & 1 ? 0.025f : -0.025f, i & 2 ? 0.025f : -0.025f, i & 4 ? 0.025f : -0.025f);
+  }
+  // Its z axis along the floor's normal, under the block's centre.
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  const Eigen::Vector3d x = kUp.cross(Eigen::Vector3d::UnitX()).normalized();
+  pose.linear().col(0) = x;
+  pose.linear().col(1) = kUp.cross(x);
+  pose.linear().col(2) = kUp;
+  const Eigen::Vector3d ray = kCamera.Ray(Eigen::Vector2d(445.5, 275.5));
+  const Eigen::Vector3d on_floor = ray * (kUp.dot(kFloorPoint) / kUp.dot(ray));
+  double tolerance = -1.0;
+  pose.translation() = on_floor + 0.025 * kUp;  // standing on the floor
+  EXPECT_LT(DepthBehindFrameSupport(planes, scene.frame.depth, scene.block, 0.5, cube, pose, &tolerance), 0.002);
+  EXPECT_GT(tolerance, 0.0);
+  pose.translation() = on_floor - 0.02 * kUp;  // its centre 2 cm below the floor
+  EXPECT_NEAR(DepthBehindFrameSupport(planes, scene.frame.depth, scene.block, 0.5, cube, pose, &tolerance), 0.045, 0.002);
+  // The plane's pixels only in a strip beside the region: no support under it.
+  std::vector<SupportPlane> wall = planes;
+  wall[0].pixels = cv::Mat::zeros(support.size(), CV_8U);
+  wall[0].pixels(cv::Rect(470, 220, 10, 110)).setTo(255);
+  EXPECT_EQ(DepthBehindFrameSupport(wall, scene.frame.depth, scene.block, 0.5, cube, pose, &tolerance), 0.0);
+  EXPECT_EQ(tolerance, 0.0);
+}
+
 TEST(FindSupport, TheSensorsNoiseAloneRaisesNothing) {
   const FloorScene scene = MakeScene(0.0);  // the "plate" is floor with holes in its depth
   cv::Mat support;

@@ -23,6 +23,77 @@ namespace g6d {
 
 namespace {
 
+// What answers may claim as they are admitted one after the other: each object's count of
+// instances, and the frame's pixels (an answer sharing more than max_overlap of its own with
+// those admitted before is refused). The selection and the identity check's replacements
+// admit answers by the same tests.
+class AnswerSlots {
+ public:
+  AnswerSlots(const Frame& frame, const std::vector<DetectRequest>& requests, const DetectOptions& options)
+      : requests_(requests), options_(options), answered_(requests.size(), 0),
+        taken_(cv::Mat::zeros(frame.depth.size(), CV_8U)) {}
+
+  // The pixels an answer claims: its corrected mask, or its region without one.
+  static const cv::Mat& Pixels(const Detection& detection) {
+    return detection.result.corrected_mask.empty() ? detection.region : detection.result.corrected_mask;
+  }
+  // Its object still wants an instance, it claims pixels, few of them taken, and it explains
+  // the frame around it (DetectOptions::max_free_space, min_contour_support).
+  bool Admits(const Detection& detection) const {
+    const size_t r = static_cast<size_t>(detection.request);
+    const cv::Mat& mask = Pixels(detection);
+    const int pixels = cv::countNonZero(mask);
+    const bool explains_frame = detection.check.free_space <= options_.max_free_space &&
+                                detection.check.contour_support >= options_.min_contour_support;
+    return answered_[r] < requests_[r].count && pixels > 0 && explains_frame &&
+           cv::countNonZero(mask & taken_) <= options_.max_overlap * pixels;
+  }
+  void Take(const Detection& detection) {
+    ++answered_[static_cast<size_t>(detection.request)];
+    taken_ |= Pixels(detection);
+  }
+
+ private:
+  const std::vector<DetectRequest>& requests_;
+  const DetectOptions& options_;
+  std::vector<int> answered_;
+  cv::Mat taken_;
+};
+
+}  // namespace
+
+std::vector<Detection> SelectAnswers(const Frame& frame, const std::vector<DetectRequest>& requests,
+                                     const DetectOptions& options, const std::vector<Detection>& solved,
+                                     int* suppressed) {
+  std::vector<size_t> order(solved.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    const PoseResult& x = solved[a].result;
+    const PoseResult& y = solved[b].result;
+    const bool x_sure = x.confidence >= options.sure_first_confidence;
+    const bool y_sure = y.confidence >= options.sure_first_confidence;
+    if (x_sure != y_sure) return x_sure;
+    return x.score < y.score;
+  });
+  AnswerSlots slots(frame, requests, options);
+  std::vector<Detection> kept;
+  *suppressed = 0;
+  for (size_t i : order) {
+    const Detection& detection = solved[i];
+    if (detection.result.score > options.max_score || detection.result.confidence < options.min_confidence ||
+        !slots.Admits(detection)) {
+      ++*suppressed;
+      continue;
+    }
+    slots.Take(detection);
+    kept.push_back(detection);
+  }
+  return kept;
+}
+
+namespace {
+
+
 bool ValidDepth(float z) { return z > 0.0f && std::isfinite(z); }
 
 // Chromaticity (r, g) = (R, G) / (R + G + B) histograms, kBins x kBins over [0, 1]; colours
@@ -203,69 +274,6 @@ void ShapeTerms(const Frame& frame, const TemplateBank& bank, const cv::Mat& reg
   for (CandidateTrial& trial : *trials) trial.shape_term = best_region > 0.0 ? trial.shape_term / best_region : 0.0;
 }
 
-// What answers may claim as they are admitted one after the other: each object's count of
-// instances, and the frame's pixels (an answer sharing more than max_overlap of its own with
-// those admitted before is refused). The selection and the identity check's replacements
-// admit answers by the same tests.
-class AnswerSlots {
- public:
-  AnswerSlots(const Frame& frame, const std::vector<DetectRequest>& requests, const DetectOptions& options)
-      : requests_(requests), options_(options), answered_(requests.size(), 0),
-        taken_(cv::Mat::zeros(frame.depth.size(), CV_8U)) {}
-
-  // The pixels an answer claims: its corrected mask, or its region without one.
-  static const cv::Mat& Pixels(const Detection& detection) {
-    return detection.result.corrected_mask.empty() ? detection.region : detection.result.corrected_mask;
-  }
-  // Its object still wants an instance, it claims pixels, few of them taken, and it explains
-  // the frame around it (DetectOptions::max_free_space, min_contour_support).
-  bool Admits(const Detection& detection) const {
-    const size_t r = static_cast<size_t>(detection.request);
-    const cv::Mat& mask = Pixels(detection);
-    const int pixels = cv::countNonZero(mask);
-    const bool explains_frame = detection.check.free_space <= options_.max_free_space &&
-                                detection.check.contour_support >= options_.min_contour_support;
-    return answered_[r] < requests_[r].count && pixels > 0 && explains_frame &&
-           cv::countNonZero(mask & taken_) <= options_.max_overlap * pixels;
-  }
-  void Take(const Detection& detection) {
-    ++answered_[static_cast<size_t>(detection.request)];
-    taken_ |= Pixels(detection);
-  }
-
- private:
-  const std::vector<DetectRequest>& requests_;
-  const DetectOptions& options_;
-  std::vector<int> answered_;
-  cv::Mat taken_;
-};
-
-// The answers kept among `solved`: by S_A, best first, each at most max_score and at least
-// min_confidence, and admitted by AnswerSlots (counts, overlap, the frame check).
-// *suppressed counts the others.
-std::vector<Detection> SelectAnswers(const Frame& frame, const std::vector<DetectRequest>& requests,
-                                     const DetectOptions& options, const std::vector<Detection>& solved,
-                                     int* suppressed) {
-  std::vector<size_t> order(solved.size());
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(),
-                   [&](size_t a, size_t b) { return solved[a].result.score < solved[b].result.score; });
-  AnswerSlots slots(frame, requests, options);
-  std::vector<Detection> kept;
-  *suppressed = 0;
-  for (size_t i : order) {
-    const Detection& detection = solved[i];
-    if (detection.result.score > options.max_score || detection.result.confidence < options.min_confidence ||
-        !slots.Admits(detection)) {
-      ++*suppressed;
-      continue;
-    }
-    slots.Take(detection);
-    kept.push_back(detection);
-  }
-  return kept;
-}
-
 // The templates' silhouette areas in pixels at a focal length of 1 px and a depth of 1 m (at
 // depth z and focal f the object covers about this * (f / z)^2 pixels): their 10th, 50th and
 // 90th percentiles; zeros without templates.
@@ -283,6 +291,28 @@ std::array<double, 3> SilhouetteAreas(const TemplateBank& bank) {
   return {at(0.1), at(0.5), at(0.9)};
 }
 
+// The support check of a solve (SolverOptions::support_penetration_fraction) against the
+// frame's support planes around the answer's region: the solve's own check uses the plane its
+// ring shows, and a ring of depth holes (a lit floor, a pile) shows none. An answer reaching
+// behind a support plane near it by more than the same limit is behind the support.
+void CheckFrameSupport(const Frame& frame, const std::vector<SupportPlane>& planes, const SolverOptions& solve_options,
+                       const TemplateBank& bank, Detection* detection) {
+  if (!(solve_options.support_penetration_fraction > 0.0) || !detection->result.success) return;
+  // The ring of the solve's support plane first, then its wider ring (RegionOptions).
+  double tolerance_m = 0.0;
+  double behind = DepthBehindFrameSupport(planes, frame.depth, detection->region, solve_options.region.ring_fraction,
+                                          bank.online_mesh, detection->result.cam_from_object, &tolerance_m);
+  if (tolerance_m == 0.0 && solve_options.region.limit_ring_fraction > solve_options.region.ring_fraction) {
+    behind = DepthBehindFrameSupport(planes, frame.depth, detection->region, solve_options.region.limit_ring_fraction,
+                                     bank.online_mesh, detection->result.cam_from_object, &tolerance_m);
+  }
+  StageReport& stages = detection->result.stages;
+  stages.support_penetration_m = std::max(stages.support_penetration_m, behind);
+  if (behind > solve_options.support_penetration_fraction * bank.diameter_m + tolerance_m) {
+    stages.answer_behind_support = true;
+  }
+}
+
 // The answers less sure than options.identity_check_below, each solved again on its own
 // region as every other object that region was ranked for (an object whose extent or area
 // rules the region out is no explanation of it). An answer is dropped when another object
@@ -290,7 +320,8 @@ std::array<double, 3> SilhouetteAreas(const TemplateBank& bank) {
 // answer takes its place when the object still wants instances and the pixels are free.
 void CheckIdentities(const Frame& frame, const std::vector<DetectRequest>& requests, const DetectOptions& options,
                      const SolverOptions& solve_options, const SolverOptions& island_solve_options,
-                     Executor* executor, DetectionReport* out, std::vector<Detection>* detections) {
+                     const std::vector<SupportPlane>& frame_planes, Executor* executor, DetectionReport* out,
+                     std::vector<Detection>* detections) {
   struct Check {
     size_t detection;
     size_t request;
@@ -331,6 +362,7 @@ void CheckIdentities(const Frame& frame, const std::vector<DetectRequest>& reque
     }
     other.check = CheckAgainstFrame(frame, bank, other.result.cam_from_object,
                                     options.free_space_fraction * bank.diameter_m, options.ppf_contour_step_m);
+    CheckFrameSupport(frame, frame_planes, island ? island_solve_options : solve_options, bank, &other);
     const double iou = other.result.corrected_mask.empty()
                            ? 0.0
                            : MaskIntersectionOverUnion(other.result.corrected_mask, detection.region);
@@ -421,6 +453,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
   double largest_diameter_m = 0.0;
   for (const DetectRequest& request : requests) largest_diameter_m = std::max(largest_diameter_m, request.bank->diameter_m);
 
+  std::vector<SupportPlane> frame_planes;  // the support planes, for the answers' support check
   bool all_within = true;  // every request says where its object is (the mask path's search)
   for (const DetectRequest& request : requests) all_within = all_within && !request.within.empty();
   {
@@ -428,7 +461,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
     // Outlined thin parts only join the islands, and requests with a place have none.
     DetectOptions support_options = options;
     if (all_within) support_options.raised_outline_edge = 0.0;
-    out.support_planes = FindSupport(frame, support_options, largest_diameter_m, &out.support, &out.raised);
+    out.support_planes = FindSupport(frame, support_options, largest_diameter_m, &out.support, &out.raised, &frame_planes);
   }
   const double focal = std::min(frame.camera.fx, frame.camera.fy);
   const double noise = options.segments.noise_sigmas * options.segments.sensor_noise_at_1m;
@@ -719,6 +752,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
                                        : CheckAgainstFrame(frame, bank, detection.result.cam_from_object,
                                                            options.free_space_fraction * bank.diameter_m,
                                                            options.ppf_contour_step_m);
+          CheckFrameSupport(frame, frame_planes, island ? island_solve_options : solve_options, bank, &detection);
         }
         {
           const std::vector<StageTime> times = StageTimes(detection.result.stages);
@@ -794,7 +828,8 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
   }
   if (options.identity_check_below > 0.0 && requests.size() > 1) {
     const ScopedTimer timer(&out.identity_ms);
-    CheckIdentities(frame, requests, options, solve_options, island_solve_options, executor, &out, &detections);
+    CheckIdentities(frame, requests, options, solve_options, island_solve_options, frame_planes, executor, &out,
+                    &detections);
   }
   out.segmentation = out.passes.front().segmentation;
   out.answers = static_cast<int>(detections.size());

@@ -96,6 +96,17 @@ struct Detection {
   FrameCheck check;           ///< the answer against the whole frame
 };
 
+/// The answers DetectObjects keeps among `solved` (every pass's solves of `requests`): each
+/// at most `max_score` in S_A and at least `min_confidence`, taken in order (those at least
+/// `sure_first_confidence` sure first, then the others, each group by S_A) while
+/// its object still wants an instance (DetectRequest::count), it claims pixels (its corrected
+/// mask, or its region without one) of which at most `max_overlap` are claimed already, and it
+/// explains the frame around it (`max_free_space`, `min_contour_support`). `*suppressed`
+/// counts the others.
+std::vector<Detection> SelectAnswers(const Frame& frame, const std::vector<DetectRequest>& requests,
+                                     const DetectOptions& options, const std::vector<Detection>& solved,
+                                     int* suppressed);
+
 /// What DetectObjects() saw and did.
 struct DetectionReport {
   bool success = false;

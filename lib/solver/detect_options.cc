@@ -58,6 +58,7 @@ std::string DetectOptions::Check() const {
   else if (!(min_contour_support >= 0.0 && min_contour_support <= 1.0)) out << "DetectOptions.min_contour_support must be in [0, 1] (got " << min_contour_support << ")";
   else if (shape_references < 1) out << "DetectOptions.shape_references must be >= 1 (got " << shape_references << ")";
   else if (!(min_confidence >= 0.0 && min_confidence <= 1.0)) out << "DetectOptions.min_confidence must be in [0, 1] (got " << min_confidence << ")";
+  else if (!(sure_first_confidence >= 0.0)) out << "DetectOptions.sure_first_confidence must be >= 0 (got " << sure_first_confidence << ")";
   else if (!(std::isfinite(confidence_bias) && std::isfinite(confidence_score_weight) && std::isfinite(confidence_ambiguous_weight) &&
              std::isfinite(confidence_on_surface_weight) && std::isfinite(confidence_free_space_weight) &&
              std::isfinite(confidence_contour_weight) && std::isfinite(confidence_region_iou_weight) &&

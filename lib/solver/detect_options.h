@@ -296,12 +296,20 @@ struct DetectOptions {
   double min_confidence = 0.5;
   /// An answer whose model reaches behind the support under its region (the solve found no
   /// finalist in front of it: StageReport::answer_behind_support, SolverOptions::
-  /// support_penetration_fraction) is no answer: no object lies inside the table or floor.
+  /// support_penetration_fraction; or it reaches behind the frame's support plane that holds
+  /// most of the depth around its region, DepthBehindFrameSupport) is no answer: no object
+  /// lies inside the table or floor.
   /// On synth_dev without masks: wrong answers 29 -> 21, absent objects refused 88.3% ->
   /// 93.3%, right 288 -> 290 of 412 (no right answer lost); in the search of depth regions
   /// inside a degraded mask, cut / merged / box +2 / +2 / +3; the real sets and LM-O
   /// unchanged (bench/RESULTS.md, "Detection refuses answers inside the support").
   bool refuse_behind_support = true;
+  /// The order in which answers claim their object's count and the frame's pixels: those at
+  /// least this confident first, then the others, each group by S_A (lowest first). A sure
+  /// answer is not pushed out by an unsure one of lower S_A (a pose that fits a few pixels
+  /// closely, e.g. one mostly beyond the image); among sure answers S_A decides, as in the
+  /// paper. > 1 = by S_A alone.
+  double sure_first_confidence = 0.9;
 
   /// Empty when valid, else names the bad field.
   std::string Check() const;

@@ -240,7 +240,8 @@ cv::Mat OutlinedRaisedPixels(const Frame& frame, const Plane& plane, const cv::M
 }  // namespace
 
 int FindSupport(const Frame& frame, const DetectOptions& options, double largest_diameter_m, cv::Mat* support,
-                cv::Mat* raised) {
+                cv::Mat* raised, std::vector<SupportPlane>* planes_out) {
+  if (planes_out != nullptr) planes_out->clear();
   const cv::Mat& depth = frame.depth;
   *support = cv::Mat::zeros(depth.size(), CV_8U);
   if (raised != nullptr) *raised = cv::Mat::zeros(depth.size(), CV_8U);
@@ -334,6 +335,18 @@ int FindSupport(const Frame& frame, const DetectOptions& options, double largest
       else on_support.setTo(0, above);
     }
     *support |= on_support;
+    if (planes_out != nullptr) {
+      SupportPlane found;
+      found.plane = plane;
+      if (found.plane.offset < 0.0) {  // the camera (the origin) on the normal's side
+        found.plane.normal = -found.plane.normal;
+        found.plane.offset = -found.plane.offset;
+      }
+      found.pixels = on_support;
+      found.noise_at_1m_m = options.segments.noise_sigmas * options.segments.sensor_noise_at_1m;
+      found.flatness_m = options.plane_flatness_m;
+      planes_out->push_back(std::move(found));
+    }
     std::vector<Eigen::Vector3d> left;
     std::vector<cv::Point> left_pixels;
     for (size_t i = 0; i < samples.size(); ++i) {
@@ -345,6 +358,43 @@ int FindSupport(const Frame& frame, const DetectOptions& options, double largest
     sample_pixels.swap(left_pixels);
   }
   return planes;
+}
+
+double DepthBehindFrameSupport(const std::vector<SupportPlane>& planes, const cv::Mat& depth, const cv::Mat& region,
+                               double ring_fraction, const Mesh& mesh, const Eigen::Isometry3d& cam_from_object,
+                               double* tolerance_m) {
+  *tolerance_m = 0.0;
+  if (planes.empty() || region.empty() || mesh.vertices.empty()) return 0.0;
+  const cv::Rect box = cv::boundingRect(region);
+  if (box.area() == 0) return 0.0;
+  const int ring = static_cast<int>(std::ceil(ring_fraction * std::max(box.width, box.height)));
+  const cv::Rect roi = cv::Rect(box.x - ring, box.y - ring, box.width + 2 * ring, box.height + 2 * ring) &
+                       cv::Rect(0, 0, region.cols, region.rows);
+  // The ring: the box less the region; its pixels with depth, and each plane's share of them.
+  const cv::Mat outside = region(roi) == 0;
+  const int valid = cv::countNonZero(outside & (depth(roi) > 0.0f));
+  const SupportPlane* under = nullptr;
+  int most = 0;
+  for (const SupportPlane& support : planes) {
+    const int pixels = cv::countNonZero(support.pixels(roi) & outside);
+    if (pixels > most) {
+      most = pixels;
+      under = &support;
+    }
+  }
+  if (under == nullptr || 2 * most <= valid) return 0.0;  // no support holds most of the ring
+  const Eigen::Vector3d normal = cam_from_object.linear().transpose() * under->plane.normal;
+  const double offset = under->plane.offset + under->plane.normal.dot(cam_from_object.translation());
+  double deepest = 0.0, at_z = cam_from_object.translation().z();
+  for (const Eigen::Vector3f& vertex : mesh.vertices) {
+    const double behind = -(normal.dot(vertex.cast<double>()) + offset);
+    if (behind > deepest) {
+      deepest = behind;
+      at_z = (cam_from_object * vertex.cast<double>()).z();
+    }
+  }
+  *tolerance_m = under->ToleranceAt(at_z);
+  return deepest;
 }
 
 std::set<std::pair<int, int>> NeighbourSegments(const cv::Mat& labels, int gap_px) {

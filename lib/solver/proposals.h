@@ -10,10 +10,13 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
 #include "core/frame.h"
+#include "mesh/mesh.h"
 #include "solver/detect_options.h"
+#include "solver/plane.h"
 #include "solver/segments.h"
 
 namespace g6d {
@@ -43,8 +46,29 @@ struct Proposal {
 /// planes removed and fills *support (CV_8U 0/255). The support's pixels that stand above its
 /// level (DetectOptions::raised_*: thin parts lying flat on it) go to *raised (CV_8U 0/255)
 /// when it is given, and stay support; without it they are taken out of the support.
+/// One support plane FindSupport removed: the plane (its normal towards the camera), its
+/// pixels (CV_8U 0/255), and the inlier tolerance at 1 m and its flatness (the tolerance at
+/// depth z is noise_at_1m_m * z^2 + flatness_m).
+struct SupportPlane {
+  internal::Plane plane;
+  cv::Mat pixels;
+  double noise_at_1m_m = 0.0;
+  double flatness_m = 0.0;
+  double ToleranceAt(double z) const { return noise_at_1m_m * z * z + flatness_m; }
+};
+
 int FindSupport(const Frame& frame, const DetectOptions& options, double largest_diameter_m, cv::Mat* support,
-                cv::Mat* raised = nullptr);
+                cv::Mat* raised = nullptr, std::vector<SupportPlane>* planes_out = nullptr);
+
+/// How far the model of `mesh` at `cam_from_object` reaches behind the support plane around
+/// `region` (CV_8U, frame size): in the ring of the region's box widened by `ring_fraction` of
+/// its longer side on each side (less the region), the plane holding most of the pixels with
+/// `depth`, if one holds more than half of them (a wall beside the region is no support under
+/// it). Its deepest vertex behind that plane (metres; 0 in front of it, or with no such
+/// plane), and the plane's tolerance at that vertex's depth in *tolerance_m.
+double DepthBehindFrameSupport(const std::vector<SupportPlane>& planes, const cv::Mat& depth, const cv::Mat& region,
+                               double ring_fraction, const Mesh& mesh, const Eigen::Isometry3d& cam_from_object,
+                               double* tolerance_m);
 
 /// Pairs of segments (1-based labels, a < b) with pixels within `gap_px` of each other.
 std::set<std::pair<int, int>> NeighbourSegments(const cv::Mat& labels, int gap_px);

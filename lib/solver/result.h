@@ -118,7 +118,10 @@ struct StageReport {
   bool limit_plane = false;  ///< a plane limited the poses (ObservedRegion::has_limit_plane)
   int finalists_behind_support = 0;
   bool support_changed = false;
-  bool answer_behind_support = false;  ///< every finalist near the best S reached behind it: so does the answer
+  /// Every finalist near the best S reached behind it: so does the answer. Detection also
+  /// sets it when the answer reaches behind the frame's support plane around its region past
+  /// the same limit (DepthBehindFrameSupport: a ring of depth holes shows the solve no plane).
+  bool answer_behind_support = false;
   bool post_refine_ran = false;       ///< stage 6 was triggered
   bool post_refine_accepted = false;  ///< and replaced T_A
   /// Best pose after each stage, for per-stage recall (seed, pnp, observable, icp, mhpo);

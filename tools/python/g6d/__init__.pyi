@@ -315,6 +315,7 @@ class DetectOptions(_Options):
     explain_away_passes: int
     found_object_passes: int
     refuse_behind_support: bool
+    sure_first_confidence: float
     max_solve_hypotheses: int
     solve_pnp_min_quality: float
     solve_silhouettes: bool
