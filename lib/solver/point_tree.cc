@@ -64,8 +64,7 @@ int PointTree::Build(int begin, int end) {
   return index;
 }
 
-void PointTree::Search(int node_index, const double* query, double* offsets, double box_squared,
-                        double* best_squared, int* best) const {
+void PointTree::Search(int node_index, const double* query, double* best_squared, int* best) const {
   const Node& node = nodes_[static_cast<size_t>(node_index)];
   if (node.axis < 0) {
     for (int k = node.first; k < node.second; ++k) {
@@ -79,21 +78,12 @@ void PointTree::Search(int node_index, const double* query, double* offsets, dou
     }
     return;
   }
-  // The near side first; the far side only if its cell is nearer than the best. The cell's
-  // squared distance is kept per axis (`offsets`: the query's distance to the cell along each
-  // axis, 0 inside its slab): crossing this split replaces this axis's term, so a far cell
-  // beside the query along two axes is skipped where the split plane alone would not be.
+  // The near side first; the far side only if the splitting plane is nearer than the best.
   const double offset = query[node.axis] - node.split;
   const int near_child = offset < 0.0 ? node.first : node.second;
   const int far_child = offset < 0.0 ? node.second : node.first;
-  Search(near_child, query, offsets, box_squared, best_squared, best);
-  const double before = offsets[node.axis];
-  const double far_squared = box_squared - before * before + offset * offset;
-  if (far_squared < *best_squared) {
-    offsets[node.axis] = offset;
-    Search(far_child, query, offsets, far_squared, best_squared, best);
-    offsets[node.axis] = before;
-  }
+  Search(near_child, query, best_squared, best);
+  if (offset * offset < *best_squared) Search(far_child, query, best_squared, best);
 }
 
 int PointTree::Nearest(const Eigen::Vector3d& query, double bound_squared, int hint, double* squared_distance) const {
@@ -109,8 +99,7 @@ int PointTree::Nearest(const Eigen::Vector3d& query, double bound_squared, int h
       best = k;
     }
   }
-  double offsets[3] = {0.0, 0.0, 0.0};
-  if (!nodes_.empty()) Search(0, query.data(), offsets, 0.0, &best_squared, &best);
+  if (!nodes_.empty()) Search(0, query.data(), &best_squared, &best);
   *squared_distance = best_squared;
   return best < 0 ? -1 : ids_[static_cast<size_t>(best)];
 }

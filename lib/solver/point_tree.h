@@ -39,10 +39,7 @@ class PointTree {
     int second = 0;      ///< inner: index of the right child; leaf: one past the last point
   };
   int Build(int begin, int end);
-  /// The nearest point below *best_squared in the subtree; `offsets` and `box_squared`: the
-  /// query's per-axis distances to the subtree's cell and their squared sum.
-  void Search(int node, const double* query, double* offsets, double box_squared, double* best_squared,
-              int* best) const;
+  void Search(int node, const double* query, double* best_squared, int* best) const;
 
   std::vector<double> xyz_;  // 3 per point, in leaf order
   std::vector<int> ids_;     // leaf order -> constructor index
