@@ -351,6 +351,9 @@ int main(int argc, char** argv) {
   app.add_option("--detect-refuse-behind-support", detect_options.refuse_behind_support,
                  "--masks none: an answer whose model reaches behind the support under its region is no answer")
       ->capture_default_str();
+  app.add_option("--detect-support-limit-from-frame", detect_options.support_limit_from_frame,
+                 "--masks none: a region's solve takes the frame's support plane around it as its support limit where its own ring shows none")
+      ->capture_default_str();
   app.add_option("--detect-sure-first", detect_options.sure_first_confidence,
                  "--masks none: answers at least this confident claim counts and pixels first, then the others; each group by S_A (> 1 = by S_A alone)")
       ->capture_default_str();

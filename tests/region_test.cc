@@ -195,6 +195,44 @@ TEST(ComputeObservedRegion, FindsTheLimitPlaneInAWiderRingAroundAPile) {
   EXPECT_FALSE(ComputeObservedRegion(kCamera, mask, depth, 0.12, narrow).has_limit_plane);
 }
 
+// A mask whose surroundings have no depth (a lit floor, a pile the sensor missed): the ring
+// shows no plane, and the support the caller knows (detection: the frame's support plane
+// around the region) becomes the limit; where the ring shows one, the ring's stays.
+TEST(PrepareObservation, TheCallersSupportIsTheLimitWhereTheRingShowsNone) {
+  Frame frame;
+  frame.camera = kCamera;
+  frame.rgb = cv::Mat(kHeight, kWidth, CV_8UC3, cv::Scalar(90, 90, 90));
+  cv::Mat mask = cv::Mat::zeros(kHeight, kWidth, CV_8U);
+  mask(ObjectBox()).setTo(255);
+  frame.depth = cv::Mat::zeros(kHeight, kWidth, CV_32F);
+  SceneDepth()(ObjectBox()).copyTo(frame.depth(ObjectBox()));  // depth on the object only
+  Instance instance{"part", mask};
+  instance.has_support_limit = true;
+  instance.support_limit_normal = Eigen::Vector3d(0.0, 0.0, -1.0);
+  instance.support_limit_offset_m = 1.0;  // the plane z = 1 m, facing the camera
+  const SolverOptions options;
+  Observation without;
+  ASSERT_EQ(PrepareObservation(frame, Instance{"part", mask}, options, 0.12, &without), "");
+  EXPECT_FALSE(without.region.has_limit_plane);
+  Observation with;
+  ASSERT_EQ(PrepareObservation(frame, instance, options, 0.12, &with), "");
+  ASSERT_TRUE(with.region.has_limit_plane);
+  EXPECT_EQ(with.region.limit_plane_normal, instance.support_limit_normal);
+  EXPECT_EQ(with.region.limit_plane_offset_m, 1.0);
+  // The support check off: no limit at all.
+  SolverOptions off;
+  off.support_penetration_fraction = 0.0;
+  Observation unchecked;
+  ASSERT_EQ(PrepareObservation(frame, instance, off, 0.12, &unchecked), "");
+  EXPECT_FALSE(unchecked.region.has_limit_plane);
+  // The whole scene's depth: the ring's own plane (the table), not the caller's.
+  frame.depth = SceneDepth();
+  Observation ring;
+  ASSERT_EQ(PrepareObservation(frame, instance, options, 0.12, &ring), "");
+  ASSERT_TRUE(ring.region.has_limit_plane);
+  EXPECT_NE(ring.region.limit_plane_offset_m, 1.0);
+}
+
 TEST(ComputeObservedRegion, IsDeterministic) {
   const cv::Mat depth = SceneDepth();
   cv::Mat mask = cv::Mat::zeros(kHeight, kWidth, CV_8U);

@@ -295,6 +295,20 @@ std::array<double, 3> SilhouetteAreas(const TemplateBank& bank) {
 // frame's support planes around the answer's region: the solve's own check uses the plane its
 // ring shows, and a ring of depth holes (a lit floor, a pile) shows none. An answer reaching
 // behind a support plane near it by more than the same limit is behind the support.
+// The frame's support plane around `instance`'s mask as its support limit (Instance::
+// has_support_limit): the solve's ring first, then its wider one (RegionOptions).
+void SetSupportLimit(const Frame& frame, const std::vector<SupportPlane>& planes, const SolverOptions& solve_options,
+                     Instance* instance) {
+  const SupportPlane* under = SupportAround(planes, frame.depth, instance->mask, solve_options.region.ring_fraction);
+  if (under == nullptr && solve_options.region.limit_ring_fraction > solve_options.region.ring_fraction) {
+    under = SupportAround(planes, frame.depth, instance->mask, solve_options.region.limit_ring_fraction);
+  }
+  if (under == nullptr) return;
+  instance->has_support_limit = true;
+  instance->support_limit_normal = under->plane.normal;
+  instance->support_limit_offset_m = under->plane.offset;
+}
+
 void CheckFrameSupport(const Frame& frame, const std::vector<SupportPlane>& planes, const SolverOptions& solve_options,
                        const TemplateBank& bank, Detection* detection) {
   if (!(solve_options.support_penetration_fraction > 0.0) || !detection->result.success) return;
@@ -354,8 +368,9 @@ void CheckIdentities(const Frame& frame, const std::vector<DetectRequest>& reque
     other.object_id = bank.object_id;
     other.proposal = detection.proposal;
     other.region = detection.region;
-    other.result = EstimatePoseOnMask(frame, {bank.object_id, detection.region}, bank,
-                                      island ? island_solve_options : solve_options, executor);
+    Instance instance{bank.object_id, detection.region};
+    if (options.support_limit_from_frame) SetSupportLimit(frame, frame_planes, solve_options, &instance);
+    other.result = EstimatePoseOnMask(frame, instance, bank, island ? island_solve_options : solve_options, executor);
     if (!other.result.success || other.result.score > options.max_score) {
       other.result.confidence = 0.0;
       return;
@@ -737,10 +752,12 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
         detection.proposal = trial.proposal;
         const Proposal& proposal = out.proposals[static_cast<size_t>(trial.proposal)];
         detection.region = FilledRegionMask(segmentation.labels, out.support, proposal, options.fill_gap_px);
+        Instance instance{detection.object_id, detection.region};
+        if (options.support_limit_from_frame) SetSupportLimit(frame, frame_planes, solve_options, &instance);
         // The solve on the region as a mask: EstimatePose without its depth regions
         // (solve_options.region_candidates is 0), so detection sits below EstimatePose.
         const bool island = !proposal.mask.empty() && proposal.ppf_request < 0;
-        detection.result = EstimatePoseOnMask(frame, {detection.object_id, detection.region}, *requests[job.request].bank,
+        detection.result = EstimatePoseOnMask(frame, instance, *requests[job.request].bank,
                                               island ? island_solve_options : solve_options, executor);
         const Stopwatch check_watch;
         if (detection.result.success) {

@@ -310,6 +310,10 @@ struct DetectOptions {
   /// closely, e.g. one mostly beyond the image); among sure answers S_A decides, as in the
   /// paper. > 1 = by S_A alone.
   double sure_first_confidence = 0.9;
+  /// A region's solve takes the frame's support plane around it (SupportAround) as its
+  /// support limit where the depth in its own ring shows none (Instance::has_support_limit):
+  /// the solve then prefers a finalist in front of it, instead of an answer refused after.
+  bool support_limit_from_frame = true;
 
   /// Empty when valid, else names the bad field.
   std::string Check() const;

@@ -45,6 +45,11 @@ std::string PrepareObservation(const Frame& frame, const Instance& instance, con
     // The wider ring's plane serves only as the support limit: no search when it is off.
     if (!(options.support_penetration_fraction > 0.0)) region_options.limit_ring_fraction = 0.0;
     observation->region = ComputeObservedRegion(frame.camera, observation->mask, depth, diameter_m, region_options);
+    if (!observation->region.has_limit_plane && instance.has_support_limit && options.support_penetration_fraction > 0.0) {
+      observation->region.has_limit_plane = true;
+      observation->region.limit_plane_normal = instance.support_limit_normal;
+      observation->region.limit_plane_offset_m = instance.support_limit_offset_m;
+    }
     observation->mask = observation->region.mask;
     observation->box = cv::boundingRect(observation->mask);
     if (observation->box.area() == 0) {

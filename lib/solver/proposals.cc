@@ -360,13 +360,11 @@ int FindSupport(const Frame& frame, const DetectOptions& options, double largest
   return planes;
 }
 
-double DepthBehindFrameSupport(const std::vector<SupportPlane>& planes, const cv::Mat& depth, const cv::Mat& region,
-                               double ring_fraction, const Mesh& mesh, const Eigen::Isometry3d& cam_from_object,
-                               double* tolerance_m) {
-  *tolerance_m = 0.0;
-  if (planes.empty() || region.empty() || mesh.vertices.empty()) return 0.0;
+const SupportPlane* SupportAround(const std::vector<SupportPlane>& planes, const cv::Mat& depth, const cv::Mat& region,
+                                  double ring_fraction) {
+  if (planes.empty() || region.empty()) return nullptr;
   const cv::Rect box = cv::boundingRect(region);
-  if (box.area() == 0) return 0.0;
+  if (box.area() == 0) return nullptr;
   const int ring = static_cast<int>(std::ceil(ring_fraction * std::max(box.width, box.height)));
   const cv::Rect roi = cv::Rect(box.x - ring, box.y - ring, box.width + 2 * ring, box.height + 2 * ring) &
                        cv::Rect(0, 0, region.cols, region.rows);
@@ -382,7 +380,16 @@ double DepthBehindFrameSupport(const std::vector<SupportPlane>& planes, const cv
       under = &support;
     }
   }
-  if (under == nullptr || 2 * most <= valid) return 0.0;  // no support holds most of the ring
+  return under != nullptr && 2 * most > valid ? under : nullptr;
+}
+
+double DepthBehindFrameSupport(const std::vector<SupportPlane>& planes, const cv::Mat& depth, const cv::Mat& region,
+                               double ring_fraction, const Mesh& mesh, const Eigen::Isometry3d& cam_from_object,
+                               double* tolerance_m) {
+  *tolerance_m = 0.0;
+  if (mesh.vertices.empty()) return 0.0;
+  const SupportPlane* under = SupportAround(planes, depth, region, ring_fraction);
+  if (under == nullptr) return 0.0;
   const Eigen::Vector3d normal = cam_from_object.linear().transpose() * under->plane.normal;
   const double offset = under->plane.offset + under->plane.normal.dot(cam_from_object.translation());
   double deepest = 0.0, at_z = cam_from_object.translation().z();

@@ -60,12 +60,16 @@ struct SupportPlane {
 int FindSupport(const Frame& frame, const DetectOptions& options, double largest_diameter_m, cv::Mat* support,
                 cv::Mat* raised = nullptr, std::vector<SupportPlane>* planes_out = nullptr);
 
+/// The support plane around `region` (CV_8U, frame size): in the ring of the region's box
+/// widened by `ring_fraction` of its longer side on each side (less the region), the plane
+/// holding most of the pixels with `depth`, if one holds more than half of them (a wall beside
+/// the region is no support under it); null when none does.
+const SupportPlane* SupportAround(const std::vector<SupportPlane>& planes, const cv::Mat& depth, const cv::Mat& region,
+                                  double ring_fraction);
+
 /// How far the model of `mesh` at `cam_from_object` reaches behind the support plane around
-/// `region` (CV_8U, frame size): in the ring of the region's box widened by `ring_fraction` of
-/// its longer side on each side (less the region), the plane holding most of the pixels with
-/// `depth`, if one holds more than half of them (a wall beside the region is no support under
-/// it). Its deepest vertex behind that plane (metres; 0 in front of it, or with no such
-/// plane), and the plane's tolerance at that vertex's depth in *tolerance_m.
+/// `region` (SupportAround): its deepest vertex behind that plane (metres; 0 in front of it,
+/// or with no such plane), and the plane's tolerance at that vertex's depth in *tolerance_m.
 double DepthBehindFrameSupport(const std::vector<SupportPlane>& planes, const cv::Mat& depth, const cv::Mat& region,
                                double ring_fraction, const Mesh& mesh, const Eigen::Isometry3d& cam_from_object,
                                double* tolerance_m);

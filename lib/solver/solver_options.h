@@ -43,6 +43,13 @@ struct ConfidenceWeights {
 struct Instance {
   std::string object_id;  ///< must equal the bank's object id
   cv::Mat mask;           ///< CV_8U, frame size, non-zero = visible object pixels
+  /// A support the caller knows under the object (detection: the frame's support plane that
+  /// holds most of the depth around the region), the limit no pose may reach behind
+  /// (SolverOptions::support_penetration_fraction) where the depth around the mask shows
+  /// none: normal · p + offset = 0 (camera frame, metres), the normal towards the camera.
+  bool has_support_limit = false;
+  Eigen::Vector3d support_limit_normal = Eigen::Vector3d::UnitZ();
+  double support_limit_offset_m = 0.0;
 };
 
 /// All options of EstimatePose. Defaults are the paper's where it gives them.

@@ -391,7 +391,7 @@ void BindOptions(py::module_& module) {
         G6D_FIELD(neighbour_gap_px) G6D_FIELD(max_union_segments) G6D_FIELD(max_regions)
         G6D_FIELD(extent_margin_px) G6D_FIELD(min_extent_fraction) G6D_FIELD(min_area_fraction)
         G6D_FIELD(extra_candidates) G6D_FIELD(colour_weight) G6D_FIELD(rank_uncoloured_by_shape) G6D_FIELD(shape_references) G6D_FIELD(accept_confidence)
-        G6D_FIELD(accept_region_iou) G6D_FIELD(fill_gap_px) G6D_FIELD(explain_away_passes) G6D_FIELD(found_object_passes) G6D_FIELD(refuse_behind_support) G6D_FIELD(sure_first_confidence)
+        G6D_FIELD(accept_region_iou) G6D_FIELD(fill_gap_px) G6D_FIELD(explain_away_passes) G6D_FIELD(found_object_passes) G6D_FIELD(refuse_behind_support) G6D_FIELD(sure_first_confidence) G6D_FIELD(support_limit_from_frame)
         G6D_FIELD(max_solve_hypotheses) G6D_FIELD(solve_pnp_min_quality) G6D_FIELD(solve_silhouettes) G6D_FIELD(solve_check_flips) G6D_FIELD(area_weight) G6D_FIELD(identity_check_below) G6D_FIELD(max_score)
         G6D_FIELD(max_overlap) G6D_FIELD(ppf_extra) G6D_FIELD(ppf_reference_stride) G6D_FIELD(ppf_max_scene_points)
         G6D_FIELD(ppf_surface_fraction) G6D_FIELD(ppf_max_free_space) G6D_FIELD(ppf_min_contour_support)

@@ -316,6 +316,7 @@ class DetectOptions(_Options):
     found_object_passes: int
     refuse_behind_support: bool
     sure_first_confidence: float
+    support_limit_from_frame: bool
     max_solve_hypotheses: int
     solve_pnp_min_quality: float
     solve_silhouettes: bool
