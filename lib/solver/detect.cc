@@ -93,7 +93,6 @@ std::vector<Detection> SelectAnswers(const Frame& frame, const std::vector<Detec
 
 namespace {
 
-
 bool ValidDepth(float z) { return z > 0.0f && std::isfinite(z); }
 
 // Chromaticity (r, g) = (R, G) / (R + G + B) histograms, kBins x kBins over [0, 1]; colours
@@ -291,35 +290,38 @@ std::array<double, 3> SilhouetteAreas(const TemplateBank& bank) {
   return {at(0.1), at(0.5), at(0.9)};
 }
 
-// The support check of a solve (SolverOptions::support_penetration_fraction) against the
-// frame's support planes around the answer's region: the solve's own check uses the plane its
-// ring shows, and a ring of depth holes (a lit floor, a pile) shows none. An answer reaching
-// behind a support plane near it by more than the same limit is behind the support.
-// The frame's support plane around `instance`'s mask as its support limit (Instance::
-// has_support_limit): the solve's ring first, then its wider one (RegionOptions).
-void SetSupportLimit(const Frame& frame, const std::vector<SupportPlane>& planes, const SolverOptions& solve_options,
-                     Instance* instance) {
-  const SupportPlane* under = SupportAround(planes, frame.depth, instance->mask, solve_options.region.ring_fraction);
+// The frame's support plane around a region (SupportAround): in the ring of the solve's own
+// support plane first, then in its wider ring (RegionOptions); null when neither has one.
+const SupportPlane* FrameSupportAround(const Frame& frame, const std::vector<SupportPlane>& planes,
+                                       const SolverOptions& solve_options, const cv::Mat& region) {
+  const SupportPlane* under = SupportAround(planes, frame.depth, region, solve_options.region.ring_fraction);
   if (under == nullptr && solve_options.region.limit_ring_fraction > solve_options.region.ring_fraction) {
-    under = SupportAround(planes, frame.depth, instance->mask, solve_options.region.limit_ring_fraction);
+    under = SupportAround(planes, frame.depth, region, solve_options.region.limit_ring_fraction);
   }
-  if (under == nullptr) return;
-  instance->has_support_limit = true;
-  instance->support_limit_normal = under->plane.normal;
-  instance->support_limit_offset_m = under->plane.offset;
+  return under;
 }
 
-void CheckFrameSupport(const Frame& frame, const std::vector<SupportPlane>& planes, const SolverOptions& solve_options,
-                       const TemplateBank& bank, Detection* detection) {
-  if (!(solve_options.support_penetration_fraction > 0.0) || !detection->result.success) return;
-  // The ring of the solve's support plane first, then its wider ring (RegionOptions).
-  double tolerance_m = 0.0;
-  double behind = DepthBehindFrameSupport(planes, frame.depth, detection->region, solve_options.region.ring_fraction,
-                                          bank.online_mesh, detection->result.cam_from_object, &tolerance_m);
-  if (tolerance_m == 0.0 && solve_options.region.limit_ring_fraction > solve_options.region.ring_fraction) {
-    behind = DepthBehindFrameSupport(planes, frame.depth, detection->region, solve_options.region.limit_ring_fraction,
-                                     bank.online_mesh, detection->result.cam_from_object, &tolerance_m);
+// The solve of `region` as object `object_id`, told the frame's support plane `under` as its
+// support limit (Instance::has_support_limit) when `use_limit` and there is one.
+Instance RegionInstance(const std::string& object_id, const cv::Mat& region, const SupportPlane* under, bool use_limit) {
+  Instance instance{object_id, region};
+  if (use_limit && under != nullptr) {
+    instance.has_support_limit = true;
+    instance.support_limit_normal = under->plane.normal;
+    instance.support_limit_offset_m = under->plane.offset;
   }
+  return instance;
+}
+
+// The support check of a solve (SolverOptions::support_penetration_fraction) against the
+// frame's support plane `under` around the answer's region: the solve's own check uses the
+// plane its ring shows, and a ring of depth holes (a lit floor, a pile) shows none. An answer
+// reaching behind it by more than the same limit is behind the support.
+void CheckFrameSupport(const SupportPlane* under, const SolverOptions& solve_options, const TemplateBank& bank,
+                       Detection* detection) {
+  if (under == nullptr || !(solve_options.support_penetration_fraction > 0.0) || !detection->result.success) return;
+  double tolerance_m = 0.0;
+  const double behind = DepthBehindPlane(*under, bank.online_mesh, detection->result.cam_from_object, &tolerance_m);
   StageReport& stages = detection->result.stages;
   stages.support_penetration_m = std::max(stages.support_penetration_m, behind);
   if (behind > solve_options.support_penetration_fraction * bank.diameter_m + tolerance_m) {
@@ -368,16 +370,16 @@ void CheckIdentities(const Frame& frame, const std::vector<DetectRequest>& reque
     other.object_id = bank.object_id;
     other.proposal = detection.proposal;
     other.region = detection.region;
-    Instance instance{bank.object_id, detection.region};
-    if (options.support_limit_from_frame) SetSupportLimit(frame, frame_planes, solve_options, &instance);
-    other.result = EstimatePoseOnMask(frame, instance, bank, island ? island_solve_options : solve_options, executor);
+    const SupportPlane* under = FrameSupportAround(frame, frame_planes, solve_options, detection.region);
+    other.result = EstimatePoseOnMask(frame, RegionInstance(bank.object_id, detection.region, under, options.support_limit_from_frame),
+                                      bank, island ? island_solve_options : solve_options, executor);
     if (!other.result.success || other.result.score > options.max_score) {
       other.result.confidence = 0.0;
       return;
     }
     other.check = CheckAgainstFrame(frame, bank, other.result.cam_from_object,
                                     options.free_space_fraction * bank.diameter_m, options.ppf_contour_step_m);
-    CheckFrameSupport(frame, frame_planes, island ? island_solve_options : solve_options, bank, &other);
+    CheckFrameSupport(under, island ? island_solve_options : solve_options, bank, &other);
     const double iou = other.result.corrected_mask.empty()
                            ? 0.0
                            : MaskIntersectionOverUnion(other.result.corrected_mask, detection.region);
@@ -752,8 +754,9 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
         detection.proposal = trial.proposal;
         const Proposal& proposal = out.proposals[static_cast<size_t>(trial.proposal)];
         detection.region = FilledRegionMask(segmentation.labels, out.support, proposal, options.fill_gap_px);
-        Instance instance{detection.object_id, detection.region};
-        if (options.support_limit_from_frame) SetSupportLimit(frame, frame_planes, solve_options, &instance);
+        const SupportPlane* under = FrameSupportAround(frame, frame_planes, solve_options, detection.region);
+        const Instance instance =
+            RegionInstance(detection.object_id, detection.region, under, options.support_limit_from_frame);
         // The solve on the region as a mask: EstimatePose without its depth regions
         // (solve_options.region_candidates is 0), so detection sits below EstimatePose.
         const bool island = !proposal.mask.empty() && proposal.ppf_request < 0;
@@ -769,7 +772,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
                                        : CheckAgainstFrame(frame, bank, detection.result.cam_from_object,
                                                            options.free_space_fraction * bank.diameter_m,
                                                            options.ppf_contour_step_m);
-          CheckFrameSupport(frame, frame_planes, island ? island_solve_options : solve_options, bank, &detection);
+          CheckFrameSupport(under, island ? island_solve_options : solve_options, bank, &detection);
         }
         {
           const std::vector<StageTime> times = StageTimes(detection.result.stages);

@@ -387,11 +387,16 @@ double DepthBehindFrameSupport(const std::vector<SupportPlane>& planes, const cv
                                double ring_fraction, const Mesh& mesh, const Eigen::Isometry3d& cam_from_object,
                                double* tolerance_m) {
   *tolerance_m = 0.0;
-  if (mesh.vertices.empty()) return 0.0;
   const SupportPlane* under = SupportAround(planes, depth, region, ring_fraction);
-  if (under == nullptr) return 0.0;
-  const Eigen::Vector3d normal = cam_from_object.linear().transpose() * under->plane.normal;
-  const double offset = under->plane.offset + under->plane.normal.dot(cam_from_object.translation());
+  return under == nullptr ? 0.0 : DepthBehindPlane(*under, mesh, cam_from_object, tolerance_m);
+}
+
+double DepthBehindPlane(const SupportPlane& support, const Mesh& mesh, const Eigen::Isometry3d& cam_from_object,
+                        double* tolerance_m) {
+  *tolerance_m = 0.0;
+  if (mesh.vertices.empty()) return 0.0;
+  const Eigen::Vector3d normal = cam_from_object.linear().transpose() * support.plane.normal;
+  const double offset = support.plane.offset + support.plane.normal.dot(cam_from_object.translation());
   double deepest = 0.0, at_z = cam_from_object.translation().z();
   for (const Eigen::Vector3f& vertex : mesh.vertices) {
     const double behind = -(normal.dot(vertex.cast<double>()) + offset);
@@ -400,7 +405,7 @@ double DepthBehindFrameSupport(const std::vector<SupportPlane>& planes, const cv
       at_z = (cam_from_object * vertex.cast<double>()).z();
     }
   }
-  *tolerance_m = under->ToleranceAt(at_z);
+  *tolerance_m = support.ToleranceAt(at_z);
   return deepest;
 }
 

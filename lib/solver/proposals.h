@@ -74,6 +74,12 @@ double DepthBehindFrameSupport(const std::vector<SupportPlane>& planes, const cv
                                double ring_fraction, const Mesh& mesh, const Eigen::Isometry3d& cam_from_object,
                                double* tolerance_m);
 
+/// How far the model of `mesh` at `cam_from_object` reaches behind `support`'s plane: its
+/// deepest vertex (metres; 0 in front of it), and the plane's tolerance at that vertex's
+/// depth in *tolerance_m (0 for an empty mesh).
+double DepthBehindPlane(const SupportPlane& support, const Mesh& mesh, const Eigen::Isometry3d& cam_from_object,
+                        double* tolerance_m);
+
 /// Pairs of segments (1-based labels, a < b) with pixels within `gap_px` of each other.
 std::set<std::pair<int, int>> NeighbourSegments(const cv::Mat& labels, int gap_px);
 
