@@ -316,8 +316,8 @@ int main(int argc, char** argv) {
   std::vector<double> detect_confidence;
   app.add_option("--detect-confidence", detect_confidence,
                  "--masks none: the confidence's weights (scripts/calibrate_detection.py): bias, S_A, ambiguous, "
-                 "on_surface, free_space, contour, region_iou, colour, in_image (default: DetectOptions')")
-      ->expected(9)
+                 "on_surface, free_space, contour, region_iou, colour, in_image, edge (default: DetectOptions')")
+      ->expected(10)
       ->delimiter(',');
   app.add_option("--detect-min-confidence", detect_options.min_confidence,
                  "--masks none: an answer less confident than this is no answer")
@@ -402,7 +402,7 @@ int main(int argc, char** argv) {
                          &detect_options.confidence_ambiguous_weight, &detect_options.confidence_on_surface_weight,
                          &detect_options.confidence_free_space_weight, &detect_options.confidence_contour_weight,
                          &detect_options.confidence_region_iou_weight, &detect_options.confidence_colour_weight,
-                         &detect_options.confidence_in_image_weight};
+                         &detect_options.confidence_in_image_weight, &detect_options.confidence_edge_weight};
     for (size_t k = 0; k < detect_confidence.size(); ++k) *weights[k] = detect_confidence[k];
   }
 

@@ -6,9 +6,11 @@ a logistic in what the answer already has,
     S_A, ambiguous, on_surface, free_space, contour_support (its frame check, FrameCheck),
     region_iou (its corrected mask against the region solved), colour_term (the region's
     chromaticity against the model's; 0.5 for a model without colour), in_image (the share
-    of the object's surface at the answer's pose that projects into the image),
+    of the object's surface at the answer's pose that projects into the image), edge_support
+    (the share of its outline that the colour image outlines too),
 
-Answers for absent objects (--absent-requests) are wrong answers. Measured honestly:
+Answers for absent objects (--absent-requests) are wrong answers. Answers refused by rule
+(confidence 0: behind the support) are left out: no weights make them answers. Measured honestly:
 leave-one-dataset-out (fit on the others, measured on the held-out one) and leave-one-object-
 out, with the reliability table, ECE, Brier and answers with confidence >= 0.9 that are wrong,
 beside the confidence the answers had (the solver's calibration of S_A alone). Prints the
@@ -19,7 +21,8 @@ another instance, not a rival, and is not a feature.)
     python3 scripts/calibrate_detection.py synth_dev=out/geometry/new/synth_dev_none.records.csv \\
         lmo=out/geometry/new/lmo_none.records.csv ycbv_real=... ycbv_clutter=... [--without=in_image]
 
---without=FEATURE (repeatable) fits without that feature, for an ablation.
+--without=FEATURE (repeatable) fits without that feature, for an ablation; --with=COLUMN
+(repeatable) adds a column of the records as a feature (e.g. --with=runner_up_margin).
 """
 import csv
 import os
@@ -28,8 +31,10 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from calibrate_confidence import fit, predict, report  # noqa: E402
 
-FEATURES = ["bias", "score", "ambiguous", "on_surface", "free_space", "contour", "region_iou", "colour", "in_image"]
-COLUMNS = ["score", "ambiguous", "on_surface", "free_space", "contour_support", "region_iou", "colour_term", "in_image"]
+FEATURES = ["bias", "score", "ambiguous", "on_surface", "free_space", "contour", "region_iou", "colour", "in_image",
+            "edge"]
+COLUMNS = ["score", "ambiguous", "on_surface", "free_space", "contour_support", "region_iou", "colour_term", "in_image",
+           "edge_support"]
 
 
 def features(r):
@@ -42,6 +47,8 @@ def load(path):
         for r in csv.DictReader(f):
             if None in r.values():
                 continue  # a file still being written
+            if float(r["confidence"]) == 0.0:
+                continue  # refused by rule (DetectOptions::refuse_behind_support)
             row = {k: float(r[k]) for k in COLUMNS}
             row.update(y=int(r["correct"]), obj=int(r["obj_id"]), absent=int(r["absent"]),
                        had=float(r["confidence"]))
@@ -55,7 +62,11 @@ def main():
     args = sys.argv[1:]
     # --without=FEATURE (repeatable): fit without that feature (an ablation).
     without = {a.split("=", 1)[1] for a in args if a.startswith("--without=")}
-    args = [a for a in args if not a.startswith("--without=")]
+    extra = [a.split("=", 1)[1] for a in args if a.startswith("--with=")]
+    args = [a for a in args if not a.startswith("--without=") and not a.startswith("--with=")]
+    for column in extra:
+        FEATURES.append(column)
+        COLUMNS.append(column)
     if not args or any("=" not in a for a in args) or not without <= set(FEATURES[1:]):
         sys.exit(__doc__)
     for name in without:

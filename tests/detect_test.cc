@@ -642,9 +642,18 @@ TEST(DetectionConfidence, RisesWithWhatTheFrameConfirmsAndFallsWithS) {
   check.on_surface = 0.8;
   check.contour_support = 0.6;
   check.in_image = 1.0;
+  check.edge_support = 0.5;
   const double base = DetectionConfidence(options, result, check, 0.8, 0.5);
   EXPECT_GT(base, 0.5);
   EXPECT_LT(base, 1.0);
+  // An outline the colour image does not show (a pose laid onto a bare floor) is less sure,
+  // one it shows all around surer.
+  FrameCheck unseen = check;
+  unseen.edge_support = 0.0;
+  EXPECT_LT(DetectionConfidence(options, result, unseen, 0.8, 0.5), base - 0.2);
+  FrameCheck outlined = check;
+  outlined.edge_support = 1.0;
+  EXPECT_GT(DetectionConfidence(options, result, outlined, 0.8, 0.5), base + 0.1);
   FrameCheck worse = check;
   worse.on_surface = 0.3;  // most of the rendered model is not where the depth is
   EXPECT_LT(DetectionConfidence(options, result, worse, 0.8, 0.5), base - 0.2);
@@ -679,6 +688,7 @@ TEST(DetectionConfidence, FallsWhenTheRegionsColourIsNotTheModels) {
   check.on_surface = 0.8;
   check.contour_support = 0.5;
   check.in_image = 1.0;
+  check.edge_support = 0.8;
   const double unlike = DetectionConfidence(options, result, check, 0.8, 0.0);
   const double uncoloured = DetectionConfidence(options, result, check, 0.8, 0.5);
   const double alike = DetectionConfidence(options, result, check, 0.8, 0.9);

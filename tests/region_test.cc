@@ -8,12 +8,39 @@
 
 #include "core/error.h"
 #include "solver/finalists.h"
+#include "solver/frame_check.h"
 #include "solver/mask_stage.h"
 #include "solver/solve_context.h"
 #include "test_meshes.h"
 
 namespace g6d {
 namespace {
+
+// A part lying flat shows no depth step at its outline; the colour image outlines it.
+TEST(EdgeSupport, CountsTheOutlineThatTheColourImageOutlines) {
+  cv::Mat rgb(100, 120, CV_8UC3, cv::Scalar(30, 30, 30));
+  rgb(cv::Rect(40, 30, 40, 40)).setTo(cv::Scalar(200, 190, 180));
+  cv::Mat rendered = cv::Mat::zeros(rgb.size(), CV_32F);
+  rendered(cv::Rect(40, 30, 40, 40)).setTo(0.8f);
+  EXPECT_GT(EdgeSupport(rendered, rgb, kOutlineEdgeReachPx, kOutlineEdgeThreshold), 0.95);
+  // Shifted by 8 pixels, only the parts of its top and bottom sides over the square's lie on an edge.
+  cv::Mat shifted = cv::Mat::zeros(rgb.size(), CV_32F);
+  shifted(cv::Rect(48, 30, 40, 40)).setTo(0.8f);
+  const double off = EdgeSupport(shifted, rgb, kOutlineEdgeReachPx, kOutlineEdgeThreshold);
+  EXPECT_GT(off, 0.2);
+  EXPECT_LT(off, 0.6);
+  // A uniform image outlines nothing; no colour, no outline: 0.
+  const cv::Mat grey(rgb.size(), CV_8UC3, cv::Scalar(90, 90, 90));
+  EXPECT_EQ(EdgeSupport(rendered, grey, kOutlineEdgeReachPx, kOutlineEdgeThreshold), 0.0);
+  EXPECT_EQ(EdgeSupport(rendered, cv::Mat(), kOutlineEdgeReachPx, kOutlineEdgeThreshold), 0.0);
+  EXPECT_EQ(EdgeSupport(cv::Mat::zeros(rgb.size(), CV_32F), rgb, kOutlineEdgeReachPx, kOutlineEdgeThreshold), 0.0);
+  // The image's border is no outline: a rendering cut by it is judged on its sides inside.
+  cv::Mat at_border = cv::Mat::zeros(rgb.size(), CV_32F);
+  at_border(cv::Rect(0, 30, 80, 40)).setTo(0.8f);
+  cv::Mat cut = rgb.clone();
+  cut(cv::Rect(0, 30, 80, 40)).setTo(cv::Scalar(200, 190, 180));
+  EXPECT_GT(EdgeSupport(at_border, cut, kOutlineEdgeReachPx, kOutlineEdgeThreshold), 0.95);
+}
 
 constexpr int kWidth = 320, kHeight = 240;
 const Camera kCamera{300.0, 300.0, 160.0, 120.0, kWidth, kHeight};

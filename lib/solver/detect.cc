@@ -435,7 +435,8 @@ double DetectionConfidence(const DetectOptions& options, const PoseResult& resul
                        options.confidence_contour_weight * check.contour_support +
                        options.confidence_region_iou_weight * region_iou +
                        options.confidence_colour_weight * colour_term +
-                       options.confidence_in_image_weight * check.in_image;
+                       options.confidence_in_image_weight * check.in_image +
+                       options.confidence_edge_weight * check.edge_support;
   return 1.0 / (1.0 + std::exp(-logit));
 }
 

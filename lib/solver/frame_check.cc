@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include <opencv2/imgproc.hpp>
+
 #include "core/frame.h"
 #include "render/raster.h"
 #include "templates/template_bank.h"
@@ -38,6 +40,41 @@ double ContourSupport(const cv::Mat& rendered, const cv::Mat& observed, int gap,
   return outline > 0 ? static_cast<double>(stepped) / outline : 0.0;
 }
 
+double EdgeSupport(const cv::Mat& rendered, const cv::Mat& rgb, int reach_px, double threshold) {
+  if (rgb.empty() || rgb.type() != CV_8UC3 || rgb.size() != rendered.size()) return 0.0;
+  const cv::Mat drawn = rendered > 0.0f;
+  const cv::Rect tight = cv::boundingRect(drawn);
+  if (tight.area() == 0) return 0.0;
+  // Canny's hysteresis reaches a few pixels: a margin beyond the reach keeps the crop's own
+  // border out of the outline's neighbourhood.
+  const int margin = reach_px + 4;
+  const cv::Rect box = (tight + cv::Point(-margin, -margin) + cv::Size(2 * margin, 2 * margin)) &
+                       cv::Rect(0, 0, rendered.cols, rendered.rows);
+  cv::Mat gray, edges;
+  cv::cvtColor(rgb(box), gray, cv::COLOR_RGB2GRAY);
+  cv::Canny(gray, edges, threshold, 2.0 * threshold);
+  if (reach_px > 0) {
+    cv::dilate(edges, edges, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * reach_px + 1, 2 * reach_px + 1)));
+  }
+  int outline = 0, edged = 0;
+  for (int v = tight.y; v < tight.y + tight.height; ++v) {
+    const uint8_t* d = drawn.ptr<uint8_t>(v);
+    const uint8_t* up = v > 0 ? drawn.ptr<uint8_t>(v - 1) : nullptr;
+    const uint8_t* down = v + 1 < drawn.rows ? drawn.ptr<uint8_t>(v + 1) : nullptr;
+    const uint8_t* e = edges.ptr<uint8_t>(v - box.y);
+    for (int u = tight.x; u < tight.x + tight.width; ++u) {
+      if (!d[u]) continue;
+      // Inside the image, a rendered pixel beside an unrendered one; the image's border is no outline.
+      const bool border = (u > 0 && !d[u - 1]) || (u + 1 < drawn.cols && !d[u + 1]) || (up != nullptr && !up[u]) ||
+                          (down != nullptr && !down[u]);
+      if (!border) continue;
+      ++outline;
+      edged += e[u - box.x] != 0;
+    }
+  }
+  return outline > 0 ? static_cast<double>(edged) / outline : 0.0;
+}
+
 FrameCheck CheckAgainstFrame(const Frame& frame, const TemplateBank& bank, const Eigen::Isometry3d& cam_from_object,
                              double surface_m, double step_m) {
   FrameCheck check;
@@ -63,6 +100,7 @@ FrameCheck CheckAgainstFrame(const Frame& frame, const TemplateBank& bank, const
     check.free_space = static_cast<double>(free_space) / check.rendered_pixels;
   }
   check.contour_support = ContourSupport(raster.depth, frame.depth, 2, static_cast<float>(step_m));
+  check.edge_support = EdgeSupport(raster.depth, frame.rgb, kOutlineEdgeReachPx, kOutlineEdgeThreshold);
   const std::vector<Eigen::Vector3f>& surface = bank.ppf.empty() ? bank.online_mesh.vertices : bank.ppf.points;
   int inside = 0;
   for (const Eigen::Vector3f& point : surface) {

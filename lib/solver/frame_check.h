@@ -19,11 +19,22 @@ struct FrameCheck {
   double on_surface = 0.0;       ///< fraction of them whose depth lies on the rendered surface
   double free_space = 0.0;       ///< ... whose depth lies behind it: the camera sees through the object
   double contour_support = 0.0;  ///< fraction of the outline where the depth steps
+  /// Fraction of the outline that the colour image outlines too (an edge within
+  /// kOutlineEdgeReachPx: EdgeSupport). A part lying flat on a table or a bin's floor shows
+  /// no depth step at its outline; its colour edge is still there.
+  double edge_support = 0.0;
   /// The share of the object's surface (the PPF model's evenly spaced samples; the online
   /// mesh's vertices without one) that projects into the image: a pose mostly beyond the
   /// image's border is checked on the little of it that is inside.
   double in_image = 0.0;
 };
+
+/// The colour edges an outline is checked against: Canny on the grey image with thresholds
+/// kOutlineEdgeThreshold and twice it (DetectOptions::raised_outline_edge's default, which
+/// outlines thin parts on a support), an edge within kOutlineEdgeReachPx of an outline pixel
+/// counts for it (the rendering of a right pose is a pixel or two off the image's edge).
+constexpr double kOutlineEdgeThreshold = 40.0;
+constexpr int kOutlineEdgeReachPx = 2;
 
 /// Renders `bank`'s online mesh at `cam_from_object` into the frame and reads the depth:
 /// surface tolerance `surface_m`, outline step `step_m`.
@@ -35,5 +46,11 @@ FrameCheck CheckAgainstFrame(const Frame& frame, const TemplateBank& bank, const
 /// away, the observed depth there is farther or nearer than the rendered depth by more than
 /// `step_m` (where it has depth; without depth it says nothing either way).
 double ContourSupport(const cv::Mat& rendered, const cv::Mat& observed, int gap, float step_m);
+
+/// The fraction of a rendering's outline (`rendered`, CV_32F, > 0 = rendered; its pixels with
+/// an unrendered 4-neighbour inside the image) that has a colour edge of `rgb` (CV_8UC3, same
+/// size) within `reach_px`: Canny on the grey image around the rendering, thresholds
+/// `threshold` and twice it. 0 without an outline or without colour.
+double EdgeSupport(const cv::Mat& rendered, const cv::Mat& rgb, int reach_px, double threshold);
 
 }  // namespace g6d
