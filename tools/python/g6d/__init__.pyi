@@ -344,6 +344,7 @@ class DetectOptions(_Options):
     confidence_region_iou_weight: float
     confidence_colour_weight: float
     confidence_in_image_weight: float
+    confidence_edge_weight: float
     min_confidence: float
 
 class ViewSamplingOptions(_Options):
@@ -444,6 +445,7 @@ class PoseResult:
     free_space: float
     contour_support: float
     in_image: float
+    edge_support: float
     mask_refined_rounds: int
     stages: Dict[str, Any]
     bank: Optional[TemplateBank]
