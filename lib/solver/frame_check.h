@@ -2,8 +2,9 @@
 /// @file frame_check.h
 /// An answer checked against the whole frame (not only its mask or region), at its pose:
 /// how much of the rendered model the observed depth confirms, how much of it the camera
-/// sees through, and where its outline meets a depth step. Detection's confidence reads it
-/// (detect.h), and so does the confidence of an answer to a mask (SolverOptions::confidence).
+/// sees through, and where its outline meets a depth step or a colour edge. Detection's
+/// confidence reads it (detect.h), and so does the confidence of an answer to a mask
+/// (SolverOptions::confidence).
 
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
@@ -36,8 +37,9 @@ struct FrameCheck {
 constexpr double kOutlineEdgeThreshold = 40.0;
 constexpr int kOutlineEdgeReachPx = 2;
 
-/// Renders `bank`'s online mesh at `cam_from_object` into the frame and reads the depth:
-/// surface tolerance `surface_m`, outline step `step_m`.
+/// Renders `bank`'s online mesh at `cam_from_object` into the frame and reads the depth
+/// (surface tolerance `surface_m`, outline step `step_m`) and, at the outline, the colour
+/// image's edges (EdgeSupport).
 FrameCheck CheckAgainstFrame(const Frame& frame, const TemplateBank& bank, const Eigen::Isometry3d& cam_from_object,
                              double surface_m, double step_m);
 
