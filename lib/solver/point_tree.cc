@@ -38,7 +38,7 @@ int PointTree::Build(int begin, int end) {
   const int index = static_cast<int>(nodes_.size());
   nodes_.push_back(Node());
   if (end - begin <= kLeafSize) {
-    nodes_[static_cast<size_t>(index)] = Node{0.0, -1, begin, end};
+    nodes_[static_cast<size_t>(index)] = Node{0.0, -1 - (end - begin), begin};
     return index;
   }
   auto coordinate = [&](int id, int axis) { return xyz_[3 * static_cast<size_t>(id) + axis]; };
@@ -58,32 +58,54 @@ int PointTree::Build(int begin, int end) {
                    [&](int a, int b) { return coordinate(a, axis) < coordinate(b, axis); });
   // Left: coordinates <= split; right: >= split (nth_element's partition).
   const double split = coordinate(ids_[static_cast<size_t>(middle)], axis);
-  const int left = Build(begin, middle);
+  Build(begin, middle);  // the left child is the next node
   const int right = Build(middle, end);
-  nodes_[static_cast<size_t>(index)] = Node{split, axis, left, right};
+  nodes_[static_cast<size_t>(index)] = Node{split, axis, right};
   return index;
 }
 
-void PointTree::Search(int node_index, const double* query, double* best_squared, int* best) const {
-  const Node& node = nodes_[static_cast<size_t>(node_index)];
-  if (node.axis < 0) {
-    for (int k = node.first; k < node.second; ++k) {
+void PointTree::Search(const double* query, double* best_squared, int* best) const {
+  // Depth-first, near side first, as a recursion would go (so ties go to the same point), with
+  // the far sides waiting on a stack beside the squared distance to their splitting plane:
+  // one is entered only if that plane is still nearer than the best found meanwhile. The tree
+  // is balanced (median splits), so its depth, and the stack, stay below 64 for any size.
+  struct Pending {
+    int node;
+    double plane_squared;
+  };
+  Pending stack[64];
+  int top = 0;
+  int node_index = 0;
+  double best_so_far = *best_squared;
+  int best_index = *best;
+  for (;;) {
+    const Node* node = &nodes_[static_cast<size_t>(node_index)];
+    while (node->axis >= 0) {
+      const double offset = query[node->axis] - node->split;
+      const int left = node_index + 1;
+      const int near_child = offset < 0.0 ? left : node->child;
+      const int far_child = offset < 0.0 ? node->child : left;
+      stack[top++] = Pending{far_child, offset * offset};
+      node_index = near_child;
+      node = &nodes_[static_cast<size_t>(node_index)];
+    }
+    const int leaf_end = node->child - 1 - node->axis;
+    for (int k = node->child; k < leaf_end; ++k) {
       const double* p = &xyz_[3 * static_cast<size_t>(k)];
       const double dx = p[0] - query[0], dy = p[1] - query[1], dz = p[2] - query[2];
       const double squared = dx * dx + dy * dy + dz * dz;
-      if (squared < *best_squared) {
-        *best_squared = squared;
-        *best = k;
+      if (squared < best_so_far) {
+        best_so_far = squared;
+        best_index = k;
       }
     }
-    return;
+    // The next far side whose plane is nearer than the best.
+    while (top > 0 && !(stack[top - 1].plane_squared < best_so_far)) --top;
+    if (top == 0) break;
+    node_index = stack[--top].node;
   }
-  // The near side first; the far side only if the splitting plane is nearer than the best.
-  const double offset = query[node.axis] - node.split;
-  const int near_child = offset < 0.0 ? node.first : node.second;
-  const int far_child = offset < 0.0 ? node.second : node.first;
-  Search(near_child, query, best_squared, best);
-  if (offset * offset < *best_squared) Search(far_child, query, best_squared, best);
+  *best_squared = best_so_far;
+  *best = best_index;
 }
 
 int PointTree::Nearest(const Eigen::Vector3d& query, double bound_squared, int hint, double* squared_distance) const {
@@ -99,7 +121,7 @@ int PointTree::Nearest(const Eigen::Vector3d& query, double bound_squared, int h
       best = k;
     }
   }
-  if (!nodes_.empty()) Search(0, query.data(), &best_squared, &best);
+  if (!nodes_.empty()) Search(query.data(), &best_squared, &best);
   *squared_distance = best_squared;
   return best < 0 ? -1 : ids_[static_cast<size_t>(best)];
 }

@@ -32,14 +32,15 @@ class PointTree {
   int Nearest(const Eigen::Vector3d& query, double bound_squared, int hint, double* squared_distance) const;
 
  private:
+  /// 16 bytes. An inner node's left child is the node after it (the tree is laid out
+  /// depth-first); a leaf holds the points [child, child + count) of the leaf order.
   struct Node {
     double split = 0.0;  ///< the splitting coordinate (inner nodes)
-    int axis = -1;       ///< 0, 1, 2; -1 = leaf
-    int first = 0;       ///< inner: index of the left child (the right is `second`); leaf: first point
-    int second = 0;      ///< inner: index of the right child; leaf: one past the last point
+    int axis = -1;       ///< 0, 1, 2; a leaf: -1 - its count of points
+    int child = 0;       ///< inner: index of the right child; leaf: its first point
   };
   int Build(int begin, int end);
-  void Search(int node, const double* query, double* best_squared, int* best) const;
+  void Search(const double* query, double* best_squared, int* best) const;
 
   std::vector<double> xyz_;  // 3 per point, in leaf order
   std::vector<int> ids_;     // leaf order -> constructor index
