@@ -7,7 +7,9 @@ a logistic in what the answer already has,
     region_iou (its corrected mask against the region solved), colour_term (the region's
     chromaticity against the model's; 0.5 for a model without colour), in_image (the share
     of the object's surface at the answer's pose that projects into the image), edge_support
-    (the share of its outline that the colour image outlines too),
+    (the share of its outline that the colour image outlines too), solve_runner_up_gap (RunnerUpGap:
+    the S of the best distinct finalist of the answer's own solve, its flips included, less S_A,
+    at most 0.25; 0.25 when it had none),
 
 Answers for absent objects (--absent-requests) are wrong answers. Answers refused by rule
 (confidence 0: behind the support) are left out: no weights make them answers. Measured honestly:
@@ -32,9 +34,9 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from calibrate_confidence import fit, predict, report  # noqa: E402
 
 FEATURES = ["bias", "score", "ambiguous", "on_surface", "free_space", "contour", "region_iou", "colour", "in_image",
-            "edge"]
+            "edge", "runner_up"]
 COLUMNS = ["score", "ambiguous", "on_surface", "free_space", "contour_support", "region_iou", "colour_term", "in_image",
-           "edge_support"]
+           "edge_support", "solve_runner_up_gap"]
 
 
 def features(r):
@@ -50,6 +52,8 @@ def load(path):
             if float(r["confidence"]) == 0.0:
                 continue  # refused by rule (DetectOptions::refuse_behind_support)
             row = {k: float(r[k]) for k in COLUMNS}
+            if "solve_runner_up_gap" in row:  # records before the cap was written wrote 2 - S_A for no rival
+                row["solve_runner_up_gap"] = min(0.25, row["solve_runner_up_gap"])  # RunnerUpGap's cap
             row.update(y=int(r["correct"]), obj=int(r["obj_id"]), absent=int(r["absent"]),
                        had=float(r["confidence"]))
             rows.append(row)

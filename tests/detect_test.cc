@@ -638,6 +638,8 @@ TEST(DetectionConfidence, RisesWithWhatTheFrameConfirmsAndFallsWithS) {
   const DetectOptions options;
   PoseResult result;
   result.score = 0.1;
+  result.has_runner_up = true;  // a rival 0.05 behind in S: the base is neither sure nor unsure
+  result.runner_up_score = 0.15;
   FrameCheck check;
   check.on_surface = 0.8;
   check.contour_support = 0.6;
@@ -654,6 +656,21 @@ TEST(DetectionConfidence, RisesWithWhatTheFrameConfirmsAndFallsWithS) {
   FrameCheck outlined = check;
   outlined.edge_support = 1.0;
   EXPECT_GT(DetectionConfidence(options, result, outlined, 0.8, 0.5), base + 0.1);
+  // A rival pose in the answer's own solve that explains the frame almost as well (a part
+  // turned over) makes it less sure; one far behind, or none, surer (RunnerUpGap: S of the
+  // runner-up less S_A, at most 1).
+  PoseResult rivalled = result;
+  rivalled.has_runner_up = true;
+  rivalled.runner_up_score = result.score + 0.01;
+  EXPECT_NEAR(RunnerUpGap(rivalled), 0.01, 1e-12);
+  PoseResult unrivalled = rivalled;
+  unrivalled.runner_up_score = result.score + 0.5;
+  EXPECT_LT(DetectionConfidence(options, rivalled, check, 0.8, 0.5),
+            DetectionConfidence(options, unrivalled, check, 0.8, 0.5) - 0.2);
+  PoseResult alone = result;  // no runner-up: as one worse by the cap
+  alone.has_runner_up = false;
+  EXPECT_EQ(RunnerUpGap(alone), 0.25);
+  EXPECT_GE(DetectionConfidence(options, alone, check, 0.8, 0.5), DetectionConfidence(options, unrivalled, check, 0.8, 0.5));
   FrameCheck worse = check;
   worse.on_surface = 0.3;  // most of the rendered model is not where the depth is
   EXPECT_LT(DetectionConfidence(options, result, worse, 0.8, 0.5), base - 0.2);
@@ -684,6 +701,8 @@ TEST(DetectionConfidence, FallsWhenTheRegionsColourIsNotTheModels) {
   const DetectOptions options;
   PoseResult result;
   result.score = 0.1;
+  result.has_runner_up = true;  // a rival 0.05 behind in S
+  result.runner_up_score = 0.15;
   FrameCheck check;  // an answer the frame half supports: neither sure nor unlikely
   check.on_surface = 0.8;
   check.contour_support = 0.5;

@@ -424,6 +424,11 @@ void CheckIdentities(const Frame& frame, const std::vector<DetectRequest>& reque
 
 }  // namespace
 
+double RunnerUpGap(const PoseResult& result) {
+  constexpr double kNoRival = 0.25;
+  return result.has_runner_up ? std::min(kNoRival, result.runner_up_score - result.score) : kNoRival;
+}
+
 double DetectionConfidence(const DetectOptions& options, const PoseResult& result, const FrameCheck& check,
                            double region_iou, double colour_term) {
   if (!std::isfinite(result.score)) return 0.0;
@@ -436,7 +441,8 @@ double DetectionConfidence(const DetectOptions& options, const PoseResult& resul
                        options.confidence_region_iou_weight * region_iou +
                        options.confidence_colour_weight * colour_term +
                        options.confidence_in_image_weight * check.in_image +
-                       options.confidence_edge_weight * check.edge_support;
+                       options.confidence_edge_weight * check.edge_support +
+                       options.confidence_runner_up_weight * RunnerUpGap(result);
   return 1.0 / (1.0 + std::exp(-logit));
 }
 

@@ -79,7 +79,14 @@ struct CandidateTrial {
   double ms = 0.0;           ///< solve time
 };
 
-/// The confidence of an answer with `result` (S_A, ambiguous), `check` (the frame at the
+/// How far the answer's own solve had a rival: the S of its best distinct finalist (the
+/// answer's flips included, PoseResult::runner_up_score) less S_A, at most 0.25 (a rival
+/// worse by more is none: right answers' median is 0.22); 0.25 when the solve had none. A
+/// wrong answer is mostly one of two poses that explain the frame almost equally (a
+/// near-symmetric part turned over): small or negative.
+double RunnerUpGap(const PoseResult& result);
+
+/// The confidence of an answer with `result` (S_A, ambiguous, RunnerUpGap), `check` (the frame at the
 /// pose), `region_iou` and the region's
 /// `colour_term` (CandidateTrial; 0.5 for a model without colour) (DetectOptions::
 /// confidence_*), in [0, 1].

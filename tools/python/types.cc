@@ -400,7 +400,7 @@ void BindOptions(py::module_& module) {
         G6D_FIELD(min_contour_support) G6D_FIELD(confidence_bias) G6D_FIELD(confidence_score_weight)
         G6D_FIELD(confidence_ambiguous_weight) G6D_FIELD(confidence_on_surface_weight) G6D_FIELD(confidence_free_space_weight)
         G6D_FIELD(confidence_contour_weight) G6D_FIELD(confidence_region_iou_weight) G6D_FIELD(confidence_colour_weight) G6D_FIELD(confidence_in_image_weight)
-        G6D_FIELD(confidence_edge_weight)
+        G6D_FIELD(confidence_edge_weight) G6D_FIELD(confidence_runner_up_weight)
         G6D_FIELD(min_confidence).Done();
   }
   {

@@ -345,6 +345,7 @@ class DetectOptions(_Options):
     confidence_colour_weight: float
     confidence_in_image_weight: float
     confidence_edge_weight: float
+    confidence_runner_up_weight: float
     min_confidence: float
 
 class ViewSamplingOptions(_Options):
