@@ -174,7 +174,10 @@ int main(int argc, char** argv) {
   app.add_flag("--no-dedupe", no_dedupe, "keep hypotheses equal modulo symmetry as separate K slots (ablation)");
   // Speed schedule (issue 13), each switchable for the ablation table.
   bool no_simd_match = false;
-  app.add_flag("--no-simd-match", no_simd_match, "portable template matching loop instead of AVX-512 (same result; ablation)");
+  app.add_flag("--no-simd-match", no_simd_match, "portable template matching loop instead of AVX-512 or AVX2 (same result; ablation)");
+  bool no_avx512_match = false;
+  app.add_flag("--no-avx512-match", no_avx512_match,
+               "template matching's AVX2 loop even where the CPU has AVX-512 (same result: what a machine without it takes)");
   bool no_merge = false, no_cull = false, full_selection_mesh = false, icp_source_in_mask = false;
   int icp_probe = -1, icp_finish = 0;
   double pnp_min_quality = -1.0;
@@ -440,6 +443,7 @@ int main(int argc, char** argv) {
     if (icp_point_iterations >= 0) options.icp.point_to_point_iterations = icp_point_iterations;
     if (no_merge) options.merge_pnp_poses = false;
     if (no_simd_match) options.match.simd = false;
+    if (no_avx512_match) options.match.simd_avx512 = false;
     if (no_cull) options.cull_backfaces = false;
     if (full_selection_mesh) options.coarse_selection_mesh = false;
     if (icp_source_in_mask) options.icp_source_in_mask = true;

@@ -21,9 +21,12 @@ struct MatchOptions {
   int hamming_threshold = 64;   ///< τ_H: matches need δ < τ_H (bits of 256)
   int max_sets = 256;           ///< N_P: correspondence sets kept for PnP
   int min_correspondences = 6;  ///< templates with fewer matches are discarded
-  /// Use the AVX-512 (VPOPCNTDQ) distance loop where the CPU has it; false = the portable
-  /// loop. Both give the same result bit for bit.
+  /// Use the AVX-512 (VPOPCNTDQ) distance loop where the CPU has it, else the AVX2 one where
+  /// it has that; false = the portable loop. All give the same result bit for bit.
   bool simd = true;
+  /// With simd: false = the AVX2 loop even where the CPU has AVX-512 (to measure what a
+  /// machine without it takes).
+  bool simd_avx512 = true;
 
   std::string Check() const;
 };

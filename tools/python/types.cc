@@ -267,7 +267,7 @@ void BindOptions(py::module_& module) {
   {
     using T = MatchOptions;
     OptionsClass<T>(module, "MatchOptions", "Template matching: tau_H, N_P (solver/match.h).")
-        G6D_FIELD(hamming_threshold) G6D_FIELD(max_sets) G6D_FIELD(min_correspondences) G6D_FIELD(simd).Done();
+        G6D_FIELD(hamming_threshold) G6D_FIELD(max_sets) G6D_FIELD(min_correspondences) G6D_FIELD(simd) G6D_FIELD(simd_avx512).Done();
   }
   {
     using T = PnpOptions;

@@ -85,6 +85,7 @@ class MatchOptions(_Options):
     max_sets: int
     min_correspondences: int
     simd: bool
+    simd_avx512: bool
 
 class PnpOptions(_Options):
     tau_fraction: float
