@@ -52,8 +52,6 @@ def load(path):
             if float(r["confidence"]) == 0.0:
                 continue  # refused by rule (DetectOptions::refuse_behind_support)
             row = {k: float(r[k]) for k in COLUMNS}
-            if "solve_runner_up_gap" in row:  # records before the cap was written wrote 2 - S_A for no rival
-                row["solve_runner_up_gap"] = min(0.25, row["solve_runner_up_gap"])  # RunnerUpGap's cap
             row.update(y=int(r["correct"]), obj=int(r["obj_id"]), absent=int(r["absent"]),
                        had=float(r["confidence"]))
             rows.append(row)

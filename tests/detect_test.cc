@@ -658,9 +658,8 @@ TEST(DetectionConfidence, RisesWithWhatTheFrameConfirmsAndFallsWithS) {
   EXPECT_GT(DetectionConfidence(options, result, outlined, 0.8, 0.5), base + 0.1);
   // A rival pose in the answer's own solve that explains the frame almost as well (a part
   // turned over) makes it less sure; one far behind, or none, surer (RunnerUpGap: S of the
-  // runner-up less S_A, at most 1).
+  // runner-up less S_A, at most 0.25).
   PoseResult rivalled = result;
-  rivalled.has_runner_up = true;
   rivalled.runner_up_score = result.score + 0.01;
   EXPECT_NEAR(RunnerUpGap(rivalled), 0.01, 1e-12);
   PoseResult unrivalled = rivalled;
