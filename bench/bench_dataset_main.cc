@@ -127,8 +127,9 @@ int main(int argc, char** argv) {
   bool allow_border = false, reject_border = false, post_refine = false, score_gt = false;
   std::vector<int> adds_ids;
   app.add_flag("--post-refine", post_refine, "enable the optional post-refinement (stage 6)");
-  bool check_flips = false;
-  app.add_flag("--check-flips", check_flips, "check the answer's 180-degree flips about its box axes (SolverOptions::check_flips)");
+  bool check_flips = false, no_check_flips = false;
+  app.add_flag("--check-flips", check_flips, "check the answer's 180-degree flips about its box axes (the default; kept for old scripts)");
+  app.add_flag("--no-check-flips", no_check_flips, "with masks: do not check the answer's 180-degree flips (SolverOptions::check_flips; ablation)");
   app.add_flag("--allow-border-masks", allow_border, "solve masks that touch the image border (the default; kept for old scripts)");
   app.add_flag("--reject-border-masks", reject_border, "refuse masks that touch the image border (truncated objects)");
   app.add_option("--adds-ids", adds_ids, "object ids scored with ADD-S besides models_info's symmetric ones (e.g. 1 for the YCB-V can)")
@@ -467,7 +468,7 @@ int main(int argc, char** argv) {
     if (unsure_score >= 0.0) options.unsure_score = unsure_score;
     if (pnp_min_quality >= 0.0) options.pnp_min_quality_ratio = pnp_min_quality;
     options.post_refine = post_refine;
-    options.check_flips = options.check_flips || check_flips;
+    options.check_flips = (options.check_flips || check_flips) && !no_check_flips;
     if (icp_min_step > 0) options.icp.min_step_m = icp_min_step;
     if (icp_iterations > 0) options.icp.max_iterations = icp_iterations;
     if (source_points > 0) options.max_source_points = source_points;

@@ -368,15 +368,17 @@ TEST_F(PipelineTest, PrintedBoxFlipIsResolvedByAppearanceAndNotReportedAsAmbiguo
 
 // The answer's flips (SolverOptions::check_flips) join the finalists: they are refined and
 // compared, and a printed box, whose shape the flips map onto itself, keeps its right answer
-// (its print tells the sides apart) without being called ambiguous. Off, none is checked.
+// (its print tells the sides apart) without being called ambiguous. On by default; off,
+// none is checked.
 TEST_F(PipelineTest, TheAnswersFlipsAreCheckedAndAPrintedBoxKeepsItsSide) {
   GlRenderer renderer(*mesh_);
   ThreadPool pool(2);
   std::mt19937_64 rng(37);
-  SolverOptions plain;
-  plain.silhouette_skip_agreement = 0;  // the check runs even where the texture agrees
-  SolverOptions flips = plain;
-  flips.check_flips = true;
+  SolverOptions flips;
+  EXPECT_TRUE(flips.check_flips);
+  flips.silhouette_skip_agreement = 0;  // the check runs even where the texture agrees
+  SolverOptions plain = flips;
+  plain.check_flips = false;
   int correct = 0;
   const int trials = 4;
   for (int trial = 0; trial < trials; ++trial) {

@@ -69,10 +69,9 @@ PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, con
   // 5 planes and the area's agreement since).
   detect.max_planes = 3;
   detect.area_weight = 0.0;
-  // Nor the detection's flip check: the mask's own solve has none (SolverOptions::check_flips
-  // is off), and the regions inside a mask are solved as the mask is. With it, synth_dev's
-  // merged masks lost one (332 -> 331 of 413) and boxes moved +2 -2 (bench/RESULTS.md).
-  detect.solve_check_flips = false;
+  // The regions inside a mask are solved as the mask is: with its flip check when the mask's
+  // own solve has one (SolverOptions::check_flips).
+  detect.solve_check_flips = options.check_flips;
   // The regions inside a mask are solved as the mask is (its K, PnP on every set).
   detect.max_solve_hypotheses = 0;
   detect.solve_pnp_min_quality = 0.0;

@@ -504,7 +504,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
   solve_options.pnp_min_quality_ratio = std::max(solve_options.pnp_min_quality_ratio, options.solve_pnp_min_quality);
   SolverOptions island_solve_options = solve_options;
   solve_options.use_silhouettes = solve_options.use_silhouettes && options.solve_silhouettes;
-  solve_options.check_flips = solve_options.check_flips || options.solve_check_flips;
+  solve_options.check_flips = options.solve_check_flips;
   island_solve_options.check_flips = solve_options.check_flips;
   solve_options.check_flips_max_score = std::min(solve_options.check_flips_max_score, options.max_score);
   island_solve_options.check_flips_max_score = solve_options.check_flips_max_score;

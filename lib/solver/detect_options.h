@@ -143,7 +143,8 @@ struct DetectOptions {
   /// outline is drawn by the support around it, pixels without depth included, so it is an
   /// object's outline when the island holds one object.
   bool island_silhouettes = true;
-  /// The answer's flips checked in a candidate region's solve (SolverOptions::check_flips):
+  /// The answer's flips checked in a candidate region's solve (in place of the caller's
+  /// SolverOptions::check_flips):
   /// a region drawn by the depth shows a bare part from one side, and its 180-degree turn
   /// fits that side nearly as well. On synth_dev without masks: 64.8% -> 65.0%, wrong answers
   /// with confidence >= 0.9 7 -> 6 of 300, absent objects refused 83.3% -> 86.7%, answers
