@@ -383,8 +383,9 @@ void CheckIdentities(const Frame& frame, const std::vector<DetectRequest>& reque
     const double iou = other.result.corrected_mask.empty()
                            ? 0.0
                            : MaskIntersectionOverUnion(other.result.corrected_mask, detection.region);
-    other.result.confidence =
-        DetectionConfidence(options, other.result, other.check, iou, out->trials[check.trial].colour_term);
+    other.region_iou = iou;
+    other.colour_term = out->trials[check.trial].colour_term;
+    other.result.confidence = DetectionConfidence(options, other.result, other.check, iou, other.colour_term);
   });
   out->identity_solves = static_cast<int>(checks.size());
   // Per answer, the best other explanation of its region, when better than the answer.
@@ -794,6 +795,8 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
         if (detection.result.success && !detection.result.corrected_mask.empty()) {
           trial.region_iou = MaskIntersectionOverUnion(detection.result.corrected_mask, detection.region);
         }
+        detection.region_iou = trial.region_iou;
+        detection.colour_term = trial.colour_term;
         if (detection.result.success) {
           detection.result.confidence = DetectionConfidence(options, detection.result, detection.check, trial.region_iou,
                                                              trial.colour_term);

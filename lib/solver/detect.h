@@ -101,6 +101,10 @@ struct Detection {
   cv::Mat region;             ///< CV_8U 0/255, frame size: that region (the mask it was solved with)
   PoseResult result;          ///< EstimatePoseOnMask's answer on the region (corrected_mask, S_A, ...)
   FrameCheck check;           ///< the answer against the whole frame
+  /// What its confidence read besides `result` and `check` (DetectionConfidence): the IoU of
+  /// its corrected mask with `region`, and the region's colour agreement with the model.
+  double region_iou = 0.0;
+  double colour_term = 0.5;
 };
 
 /// The answers DetectObjects keeps among `solved` (every pass's solves of `requests`): each
