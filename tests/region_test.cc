@@ -42,6 +42,32 @@ TEST(EdgeSupport, CountsTheOutlineThatTheColourImageOutlines) {
   EXPECT_GT(EdgeSupport(at_border, cut, kOutlineEdgeReachPx, kOutlineEdgeThreshold), 0.95);
 }
 
+// On a plain surface the outline's edges are evidence; on a surface full of edges (a
+// keyboard's keys) the outline meets one wherever it lies: the chance says how often.
+TEST(EdgeSupport, MeasuresHowOftenTheInteriorMeetsAnEdgeByChance) {
+  cv::Mat plain(100, 120, CV_8UC3, cv::Scalar(30, 30, 30));
+  plain(cv::Rect(40, 30, 40, 40)).setTo(cv::Scalar(200, 190, 180));
+  cv::Mat rendered = cv::Mat::zeros(plain.size(), CV_32F);
+  rendered(cv::Rect(40, 30, 40, 40)).setTo(0.8f);
+  double chance = -1.0;
+  EXPECT_GT(EdgeSupport(rendered, plain, kOutlineEdgeReachPx, kOutlineEdgeThreshold, &chance), 0.95);
+  EXPECT_EQ(chance, 0.0);  // a uniform face inside the outline
+  cv::Mat keys(plain.size(), CV_8UC3, cv::Scalar(30, 30, 30));
+  for (int v = 0; v < keys.rows; v += 6) {
+    for (int u = (v / 6) % 2 * 6; u < keys.cols; u += 12) {
+      keys(cv::Rect(u, v, 6, 6) & cv::Rect(0, 0, keys.cols, keys.rows)).setTo(cv::Scalar(220, 220, 220));
+    }
+  }
+  const double on_keys = EdgeSupport(rendered, keys, kOutlineEdgeReachPx, kOutlineEdgeThreshold, &chance);
+  EXPECT_GT(on_keys, 0.9);
+  EXPECT_GT(chance, 0.9);
+  // No interior (a rendering thinner than twice the reach): nothing to compare, 0.
+  cv::Mat thin = cv::Mat::zeros(plain.size(), CV_32F);
+  thin(cv::Rect(40, 30, 40, 4)).setTo(0.8f);
+  EdgeSupport(thin, keys, kOutlineEdgeReachPx, kOutlineEdgeThreshold, &chance);
+  EXPECT_EQ(chance, 0.0);
+}
+
 constexpr int kWidth = 320, kHeight = 240;
 const Camera kCamera{300.0, 300.0, 160.0, 120.0, kWidth, kHeight};
 

@@ -40,7 +40,8 @@ double ContourSupport(const cv::Mat& rendered, const cv::Mat& observed, int gap,
   return outline > 0 ? static_cast<double>(stepped) / outline : 0.0;
 }
 
-double EdgeSupport(const cv::Mat& rendered, const cv::Mat& rgb, int reach_px, double threshold) {
+double EdgeSupport(const cv::Mat& rendered, const cv::Mat& rgb, int reach_px, double threshold, double* interior_share) {
+  if (interior_share != nullptr) *interior_share = 0.0;
   if (rgb.empty() || rgb.type() != CV_8UC3 || rgb.size() != rendered.size()) return 0.0;
   const cv::Mat drawn = rendered > 0.0f;
   const cv::Rect tight = cv::boundingRect(drawn);
@@ -72,6 +73,15 @@ double EdgeSupport(const cv::Mat& rendered, const cv::Mat& rgb, int reach_px, do
       edged += e[u - box.x] != 0;
     }
   }
+  if (interior_share != nullptr) {
+    // The interior beyond the outline's own edge (dilated by reach_px): what the outline
+    // would meet by chance.
+    const int in = reach_px + 2;
+    cv::Mat interior;
+    cv::erode(drawn(box), interior, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * in + 1, 2 * in + 1)));
+    const int pixels = cv::countNonZero(interior);
+    if (pixels > 0) *interior_share = static_cast<double>(cv::countNonZero(interior & edges)) / pixels;
+  }
   return outline > 0 ? static_cast<double>(edged) / outline : 0.0;
 }
 
@@ -100,7 +110,7 @@ FrameCheck CheckAgainstFrame(const Frame& frame, const TemplateBank& bank, const
     check.free_space = static_cast<double>(free_space) / check.rendered_pixels;
   }
   check.contour_support = ContourSupport(raster.depth, frame.depth, 2, static_cast<float>(step_m));
-  check.edge_support = EdgeSupport(raster.depth, frame.rgb, kOutlineEdgeReachPx, kOutlineEdgeThreshold);
+  check.edge_support = EdgeSupport(raster.depth, frame.rgb, kOutlineEdgeReachPx, kOutlineEdgeThreshold, &check.edge_chance);
   const std::vector<Eigen::Vector3f>& surface = bank.ppf.empty() ? bank.online_mesh.vertices : bank.ppf.points;
   int inside = 0;
   for (const Eigen::Vector3f& point : surface) {

@@ -24,6 +24,10 @@ struct FrameCheck {
   /// kOutlineEdgeReachPx: EdgeSupport). A part lying flat on a table or a bin's floor shows
   /// no depth step at its outline; its colour edge is still there.
   double edge_support = 0.0;
+  /// How often an edge lies that near by chance: the share of the rendered interior (more than
+  /// kOutlineEdgeReachPx + 2 px inside the outline) with an edge within the same reach (0
+  /// when there is no such interior). On a keyboard's keys every outline meets an edge.
+  double edge_chance = 0.0;
   /// The share of the object's surface (the PPF model's evenly spaced samples; the online
   /// mesh's vertices without one) that projects into the image: a pose mostly beyond the
   /// image's border is checked on the little of it that is inside.
@@ -53,6 +57,7 @@ double ContourSupport(const cv::Mat& rendered, const cv::Mat& observed, int gap,
 /// an unrendered 4-neighbour inside the image) that has a colour edge of `rgb` (CV_8UC3, same
 /// size) within `reach_px`: Canny on the grey image around the rendering, thresholds
 /// `threshold` and twice it. 0 without an outline or without colour.
-double EdgeSupport(const cv::Mat& rendered, const cv::Mat& rgb, int reach_px, double threshold);
+double EdgeSupport(const cv::Mat& rendered, const cv::Mat& rgb, int reach_px, double threshold,
+                   double* interior_share = nullptr);
 
 }  // namespace g6d
