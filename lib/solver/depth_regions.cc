@@ -69,10 +69,9 @@ PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, con
   // 5 planes and the area's agreement since).
   detect.max_planes = 3;
   detect.area_weight = 0.0;
-  // The regions inside a mask are solved as the mask is: with its flip check when the mask's
-  // own solve has one (SolverOptions::check_flips).
+  // The regions inside a mask are solved as the mask is: its flip check
+  // (SolverOptions::check_flips), its K, PnP on every set.
   detect.solve_check_flips = options.check_flips;
-  // The regions inside a mask are solved as the mask is (its K, PnP on every set).
   detect.max_solve_hypotheses = 0;
   detect.solve_pnp_min_quality = 0.0;
   SolverOptions region_options = options;

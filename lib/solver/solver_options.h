@@ -164,8 +164,8 @@ struct SolverOptions {
   /// tells the sides apart). Its time is part of the finalists' stage. On with masks too
   /// since 2026-12-01: synth_dev GT masks 95.1 -> 95.4%, cut 80.8 -> 81.6%, merged 83.0 ->
   /// 83.3%, boxes 73.1 -> 74.0%; LM-O and YCB-V unchanged but one LM-O GT answer of
-  /// confidence 0.03; wrong answers at >= 0.9 left out one object at a time 42 -> 37 of
-  /// 1,703 (bench/RESULTS.md, "The flips with masks too").
+  /// confidence 0.03; wrong answers at >= 0.9 left out one object at a time 42 of 1,703 ->
+  /// 37 of 1,704 (bench/RESULTS.md, "The flips with masks too").
   bool check_flips = true;
   /// ... only for an answer whose S_A is at most this (an answer refused anyway is not worth
   /// its flips; detection sets its max_score).
