@@ -6,8 +6,9 @@ a logistic in what the answer already has,
     S_A, ambiguous, on_surface, free_space, contour_support (its frame check, FrameCheck),
     region_iou (its corrected mask against the region solved), colour_term (the region's
     chromaticity against the model's; 0.5 for a model without colour), in_image (the share
-    of the object's surface at the answer's pose that projects into the image), edge_support
-    (the share of its outline that the colour image outlines too), solve_runner_up_gap (RunnerUpGap:
+    of the object's surface at the answer's pose that projects into the image), oriented_edge
+    (the share of its outline whose strongest image gradient across it runs along it;
+    edge_support, any edge near the outline, is kept as a column), solve_runner_up_gap (RunnerUpGap:
     the S of the best distinct finalist of the answer's own solve, its flips included, less S_A,
     at most 0.25; 0.25 when it had none),
 
@@ -36,7 +37,7 @@ from calibrate_confidence import fit, predict, report  # noqa: E402
 FEATURES = ["bias", "score", "ambiguous", "on_surface", "free_space", "contour", "region_iou", "colour", "in_image",
             "edge", "runner_up"]
 COLUMNS = ["score", "ambiguous", "on_surface", "free_space", "contour_support", "region_iou", "colour_term", "in_image",
-           "edge_support", "solve_runner_up_gap"]
+           "oriented_edge", "solve_runner_up_gap"]
 
 
 def features(r):

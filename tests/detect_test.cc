@@ -642,19 +642,19 @@ TEST(DetectionConfidence, RisesWithWhatTheFrameConfirmsAndFallsWithS) {
   result.runner_up_score = 0.15;
   FrameCheck check;
   check.on_surface = 0.8;
-  check.contour_support = 0.6;
+  check.contour_support = 0.4;
   check.in_image = 1.0;
-  check.edge_support = 0.5;
+  check.oriented_edge = 0.4;
   const double base = DetectionConfidence(options, result, check, 0.8, 0.5);
   EXPECT_GT(base, 0.5);
   EXPECT_LT(base, 1.0);
   // An outline the colour image does not show (a pose laid onto a bare floor) is less sure,
   // one it shows all around surer.
   FrameCheck unseen = check;
-  unseen.edge_support = 0.0;
+  unseen.oriented_edge = 0.0;
   EXPECT_LT(DetectionConfidence(options, result, unseen, 0.8, 0.5), base - 0.2);
   FrameCheck outlined = check;
-  outlined.edge_support = 1.0;
+  outlined.oriented_edge = 1.0;
   EXPECT_GT(DetectionConfidence(options, result, outlined, 0.8, 0.5), base + 0.1);
   // A rival pose in the answer's own solve that explains the frame almost as well (a part
   // turned over) makes it less sure; one far behind, or none, surer (RunnerUpGap: S of the
@@ -706,13 +706,54 @@ TEST(DetectionConfidence, FallsWhenTheRegionsColourIsNotTheModels) {
   check.on_surface = 0.8;
   check.contour_support = 0.5;
   check.in_image = 1.0;
-  check.edge_support = 0.8;
+  check.oriented_edge = 0.3;  // a third of the outline on an edge along it
   const double unlike = DetectionConfidence(options, result, check, 0.8, 0.0);
   const double uncoloured = DetectionConfidence(options, result, check, 0.8, 0.5);
   const double alike = DetectionConfidence(options, result, check, 0.8, 0.9);
   EXPECT_LT(unlike, uncoloured - 0.2);
   EXPECT_GT(uncoloured, options.min_confidence);
   EXPECT_GT(alike, uncoloured);
+}
+
+// The box's region darkened to a seventh (a black object of its shape, same chromaticity):
+// its lightness ratio (recorded for analysis) is far below the box's as rendered, which lies
+// near 1; the chromaticity term cannot tell them apart.
+TEST_F(DetectTest, TheLightnessRatioReadsARegionFarDarkerThanTheModelsAlbedo) {
+  Scene scene = RenderScene({&Box()}, {OnTable(Box(), 0.0, 0.3)}, 11);
+  GlRenderer renderer(Box().mesh);
+  const cv::Mat box_pixels = renderer.Render(kCamera, scene.poses[0]).mask;
+  Frame dark = scene.frame;
+  dark.rgb = scene.frame.rgb.clone();
+  for (int v = 0; v < dark.rgb.rows; ++v) {
+    for (int u = 0; u < dark.rgb.cols; ++u) {
+      if (box_pixels.at<uint8_t>(v, u)) dark.rgb.at<cv::Vec3b>(v, u) /= 7;
+    }
+  }
+  ThreadPool pool(2);
+  auto box_trial = [&](const Frame& frame) {
+    DetectionReport report;
+    DetectOptions options;
+    options.min_confidence = 0.0;
+    DetectObjects(frame, {{&Box().bank, 1}}, QuickSolver(), options, &pool, &report);
+    EXPECT_TRUE(report.success) << report.message;
+    // The trial on the box's region: the proposal whose box overlaps the box's pixels most.
+    const cv::Rect truth = cv::boundingRect(box_pixels);
+    CandidateTrial best;
+    int best_overlap = 0;
+    for (const CandidateTrial& trial : report.trials) {
+      const int overlap = (report.proposals[static_cast<size_t>(trial.proposal)].box & truth).area();
+      if (overlap > best_overlap) best = trial, best_overlap = overlap;
+    }
+    EXPECT_GT(best_overlap, truth.area() / 2);
+    return best;
+  };
+  const CandidateTrial bright = box_trial(scene.frame);
+  const CandidateTrial black = box_trial(dark);
+  EXPECT_GT(bright.lightness_ratio, 0.5);
+  EXPECT_LT(bright.lightness_ratio, 2.0);
+  EXPECT_LT(black.lightness_ratio, 0.25);
+  EXPECT_GT(bright.colour_term, 0.5);
+  EXPECT_GT(black.colour_term, 0.5);
 }
 
 // Answers of one object wanted once, on different pixels: a sure one (confidence at least

@@ -68,6 +68,42 @@ TEST(EdgeSupport, MeasuresHowOftenTheInteriorMeetsAnEdgeByChance) {
   EXPECT_EQ(chance, 0.0);
 }
 
+// An edge only counts when it runs along the outline: on keys turned 45 degrees to the
+// outline, or on noise, the outline meets edges everywhere but few along it (about a third
+// of random directions lie within kOutlineEdgeAngleDeg), and the line inside says so too.
+TEST(OrientedEdgeSupport, CountsEdgesAlongTheOutlineOnly) {
+  cv::Mat plain(100, 120, CV_8UC3, cv::Scalar(30, 30, 30));
+  plain(cv::Rect(40, 30, 40, 40)).setTo(cv::Scalar(200, 190, 180));
+  cv::Mat rendered = cv::Mat::zeros(plain.size(), CV_32F);
+  rendered(cv::Rect(40, 30, 40, 40)).setTo(0.8f);
+  double chance = -1.0;
+  EXPECT_GT(OrientedEdgeSupport(rendered, plain, kOutlineEdgeReachPx, kOutlineEdgeThreshold, &chance), 0.95);
+  EXPECT_EQ(chance, 0.0);
+  cv::Mat turned(plain.size(), CV_8UC3);
+  for (int v = 0; v < turned.rows; ++v) {
+    for (int u = 0; u < turned.cols; ++u) {
+      const bool light = (((u + v) / 8) + ((u - v + 400) / 8)) % 2 == 0;
+      turned.at<cv::Vec3b>(v, u) = light ? cv::Vec3b(220, 220, 220) : cv::Vec3b(30, 30, 30);
+    }
+  }
+  EXPECT_GT(EdgeSupport(rendered, turned, kOutlineEdgeReachPx, kOutlineEdgeThreshold), 0.8);
+  // (where the turned keys' corners meet the outline, some gradients do run along it)
+  EXPECT_LT(OrientedEdgeSupport(rendered, turned, kOutlineEdgeReachPx, kOutlineEdgeThreshold, &chance), 0.5);
+  EXPECT_LT(chance, 0.5);
+  cv::Mat noise(plain.size(), CV_8UC3);
+  cv::RNG rng(7);
+  rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
+  const double on_noise = OrientedEdgeSupport(rendered, noise, kOutlineEdgeReachPx, kOutlineEdgeThreshold, &chance);
+  EXPECT_GT(on_noise, 0.15);
+  EXPECT_LT(on_noise, 0.55);
+  EXPECT_GT(chance, 0.15);
+  EXPECT_LT(chance, 0.55);
+  const cv::Mat grey(plain.size(), CV_8UC3, cv::Scalar(90, 90, 90));
+  EXPECT_EQ(OrientedEdgeSupport(rendered, grey, kOutlineEdgeReachPx, kOutlineEdgeThreshold), 0.0);
+  EXPECT_EQ(OrientedEdgeSupport(rendered, cv::Mat(), kOutlineEdgeReachPx, kOutlineEdgeThreshold), 0.0);
+  EXPECT_EQ(OrientedEdgeSupport(cv::Mat::zeros(plain.size(), CV_32F), plain, kOutlineEdgeReachPx, kOutlineEdgeThreshold), 0.0);
+}
+
 constexpr int kWidth = 320, kHeight = 240;
 const Camera kCamera{300.0, 300.0, 160.0, 120.0, kWidth, kHeight};
 

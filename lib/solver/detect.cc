@@ -121,6 +121,26 @@ double Bhattacharyya(const ChromaHistogram& a, const ChromaHistogram& b) {
   return sum;
 }
 
+// The frame's white point: the 95th percentile of its pixels' lightness (mean of the
+// channels, in [0, 1]; every 4th pixel of every 4th row). A white surface under the scene's
+// light is about that bright, whatever the exposure.
+double WhitePoint(const cv::Mat& rgb) {
+  std::array<int, 256> counts{};
+  int total = 0;
+  for (int v = 0; v < rgb.rows; v += 4) {
+    const cv::Vec3b* row = rgb.ptr<cv::Vec3b>(v);
+    for (int u = 0; u < rgb.cols; u += 4) {
+      ++counts[static_cast<size_t>((row[u][0] + row[u][1] + row[u][2]) / 3)];
+      ++total;
+    }
+  }
+  int seen = 0;
+  for (int level = 0; level < 256; ++level) {
+    seen += counts[static_cast<size_t>(level)];
+    if (seen >= 0.95 * total) return std::max(1, level) / 255.0;
+  }
+  return 1.0;
+}
 
 // Regions of one object from the point-pair-feature vote over `region` (DetectOptions::ppf_*):
 // at most `wanted` of them, most votes first, each the pixels on the rendered surface of a
@@ -385,6 +405,7 @@ void CheckIdentities(const Frame& frame, const std::vector<DetectRequest>& reque
                            : MaskIntersectionOverUnion(other.result.corrected_mask, detection.region);
     other.region_iou = iou;
     other.colour_term = out->trials[check.trial].colour_term;
+    other.lightness_ratio = out->trials[check.trial].lightness_ratio;
     other.result.confidence = DetectionConfidence(options, other.result, other.check, iou, other.colour_term);
   });
   out->identity_solves = static_cast<int>(checks.size());
@@ -442,7 +463,7 @@ double DetectionConfidence(const DetectOptions& options, const PoseResult& resul
                        options.confidence_region_iou_weight * region_iou +
                        options.confidence_colour_weight * colour_term +
                        options.confidence_in_image_weight * check.in_image +
-                       options.confidence_edge_weight * check.edge_support +
+                       options.confidence_edge_weight * check.oriented_edge +
                        options.confidence_runner_up_weight * RunnerUpGap(result);
   return 1.0 / (1.0 + std::exp(-logit));
 }
@@ -489,6 +510,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
     out.support_planes = FindSupport(frame, support_options, largest_diameter_m, &out.support, &out.raised, &frame_planes);
   }
   const double focal = std::min(frame.camera.fx, frame.camera.fy);
+  const double white_point = WhitePoint(frame.rgb);
   const double noise = options.segments.noise_sigmas * options.segments.sensor_noise_at_1m;
   // How much longer than a diameter a region's extent may be: the noise at both ends and
   // extent_margin_px at the region's depth.
@@ -596,13 +618,19 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
     std::vector<std::vector<int>> chosen(requests.size());
     {
       const ScopedTimer timer(&out.rank_ms);
-      std::map<size_t, ChromaHistogram> region_colours;
-      auto region_colour = [&](size_t index) -> const ChromaHistogram& {
+      struct RegionColour {
+        ChromaHistogram chroma{};
+        double lightness = 0.0;  ///< mean lightness over the white point
+      };
+      std::map<size_t, RegionColour> region_colours;
+      auto region_colour = [&](size_t index) -> const RegionColour& {
         auto found = region_colours.find(index);
         if (found != region_colours.end()) return found->second;
-        ChromaHistogram& histogram = region_colours[index];
+        RegionColour& colour = region_colours[index];
+        ChromaHistogram& histogram = colour.chroma;
         histogram.fill(0.0);
-        double total = 0.0;
+        double total = 0.0, lightness = 0.0;
+        int pixels = 0;
         const Proposal& proposal = out.proposals[index];
         for (int v = proposal.box.y; v < proposal.box.y + proposal.box.height; v += 2) {
           const int* l = segmentation.labels.ptr<int>(v);
@@ -614,19 +642,27 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
               continue;
             }
             AddColour(rgb[u][0] / 255.0, rgb[u][1] / 255.0, rgb[u][2] / 255.0, &histogram, &total);
+            lightness += (rgb[u][0] + rgb[u][1] + rgb[u][2]) / (3.0 * 255.0);
+            ++pixels;
           }
         }
         Normalize(total, &histogram);
-        return histogram;
+        colour.lightness = pixels > 0 ? lightness / pixels / white_point : 0.0;
+        return colour;
       };
       for (size_t r = 0; r < requests.size(); ++r) {
         if (wanted[r] <= 0) continue;
         const TemplateBank& bank = *requests[r].bank;
         ChromaHistogram model_colour{};
         double model_total = 0.0;
-        for (const Eigen::Vector3f& c : bank.appearance.colors) AddColour(c.x(), c.y(), c.z(), &model_colour, &model_total);
+        double model_lightness = 0.0;
+        for (const Eigen::Vector3f& c : bank.appearance.colors) {
+          AddColour(c.x(), c.y(), c.z(), &model_colour, &model_total);
+          model_lightness += (c.x() + c.y() + c.z()) / 3.0;
+        }
         Normalize(model_total, &model_colour);
         const bool has_colour = model_total > 0.0;
+        if (has_colour) model_lightness /= static_cast<double>(bank.appearance.colors.size());
         const bool has_near = requests[r].near_point_m.allFinite();
         const std::array<double, 3>& unit_areas = silhouette_areas[r];
         std::vector<CandidateTrial> trials;
@@ -656,7 +692,11 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
             trial.area_term = area < low ? area / low : area > high ? high / area : 1.0;
           }
           const double size_agreement = (1.0 - options.area_weight) * trial.size_term + options.area_weight * trial.area_term;
-          trial.colour_term = has_colour ? Bhattacharyya(model_colour, region_colour(p)) : 0.5;
+          if (has_colour) {
+            const RegionColour& seen = region_colour(p);
+            trial.colour_term = Bhattacharyya(model_colour, seen.chroma);
+            if (model_lightness > 0.0) trial.lightness_ratio = seen.lightness / model_lightness;
+          }
           trial.rank = (1.0 - options.colour_weight) * size_agreement + options.colour_weight * trial.colour_term;
           trials.push_back(trial);
         }
@@ -797,6 +837,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
         }
         detection.region_iou = trial.region_iou;
         detection.colour_term = trial.colour_term;
+        detection.lightness_ratio = trial.lightness_ratio;
         if (detection.result.success) {
           detection.result.confidence = DetectionConfidence(options, detection.result, detection.check, trial.region_iou,
                                                              trial.colour_term);

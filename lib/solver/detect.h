@@ -63,6 +63,12 @@ struct CandidateTrial {
   int pass = 0;              ///< the pass it was ranked in
   double size_term = 0.0;    ///< extent / diameter, in [0, 1]
   double colour_term = 0.5;  ///< chromaticity agreement in [0, 1] (0.5 = no colour model)
+  /// The region's mean lightness over the frame's white point (its 95th percentile), over the
+  /// model's mean albedo (its appearance samples); 0 for a model without colour. Measured
+  /// (the detection records), not used: right answers lie at 0.5-2.2, and asking the colour
+  /// term to agree within a factor 2 too answered more absent objects on the real frames, not
+  /// fewer (bench/RESULTS.md, "Edges along the outline").
+  double lightness_ratio = 0.0;
   double shape_term = 0.5;   ///< PPF support over the best region's, in [0, 1] (0.5 = no PPF model)
   /// The region's area (pixels with depth; an island's whole mask) over the object's median
   /// silhouette area at the region's depth, and its agreement with the silhouettes' range in
@@ -105,6 +111,7 @@ struct Detection {
   /// its corrected mask with `region`, and the region's colour agreement with the model.
   double region_iou = 0.0;
   double colour_term = 0.5;
+  double lightness_ratio = 0.0;  ///< CandidateTrial::lightness_ratio of its region
 };
 
 /// The answers DetectObjects keeps among `solved` (every pass's solves of `requests`): each

@@ -85,6 +85,77 @@ double EdgeSupport(const cv::Mat& rendered, const cv::Mat& rgb, int reach_px, do
   return outline > 0 ? static_cast<double>(edged) / outline : 0.0;
 }
 
+double OrientedEdgeSupport(const cv::Mat& rendered, const cv::Mat& rgb, int reach_px, double threshold, double* chance) {
+  if (chance != nullptr) *chance = 0.0;
+  if (rgb.empty() || rgb.type() != CV_8UC3 || rgb.size() != rendered.size()) return 0.0;
+  const cv::Mat drawn = rendered > 0.0f;
+  const cv::Rect tight = cv::boundingRect(drawn);
+  if (tight.area() == 0) return 0.0;
+  const int margin = reach_px + 2;
+  const cv::Rect box = (tight + cv::Point(-margin, -margin) + cv::Size(2 * margin, 2 * margin)) &
+                       cv::Rect(0, 0, rendered.cols, rendered.rows);
+  cv::Mat gray, gx, gy;
+  cv::cvtColor(rgb(box), gray, cv::COLOR_RGB2GRAY);
+  cv::Sobel(gray, gx, CV_32F, 1, 0, 3);
+  cv::Sobel(gray, gy, CV_32F, 0, 1, 3);
+  // The outline's normals: the gradient of the signed distance to it (inward).
+  const cv::Mat inside = drawn(box);
+  cv::Mat inner, outer, outside;
+  cv::bitwise_not(inside, outside);
+  cv::distanceTransform(inside, inner, cv::DIST_L2, 5);
+  cv::distanceTransform(outside, outer, cv::DIST_L2, 5);
+  const cv::Mat signed_distance = inner - outer;
+  cv::Mat nx, ny;
+  cv::Sobel(signed_distance, nx, CV_32F, 1, 0, 3);
+  cv::Sobel(signed_distance, ny, CV_32F, 0, 1, 3);
+  const float min_cos = static_cast<float>(std::cos(kOutlineEdgeAngleDeg * M_PI / 180.0));
+  const float min_magnitude = static_cast<float>(threshold);
+  // Is the strongest gradient across (x, y) (crop coordinates) at least the threshold and along the normal?
+  auto along = [&](int x, int y) -> int {  // -1: no normal there
+    const float a = nx.at<float>(y, x), b = ny.at<float>(y, x);
+    const float length = std::sqrt(a * a + b * b);
+    if (!(length > 0.0f)) return -1;
+    const float ux = a / length, uy = b / length;
+    float best = 0.0f, best_cos = 0.0f;
+    for (int k = -reach_px; k <= reach_px; ++k) {
+      const int qx = x + static_cast<int>(std::lround(k * ux)), qy = y + static_cast<int>(std::lround(k * uy));
+      if (qx < 0 || qy < 0 || qx >= box.width || qy >= box.height) continue;
+      const float g = gx.at<float>(qy, qx), h = gy.at<float>(qy, qx);
+      const float magnitude = std::sqrt(g * g + h * h);
+      if (magnitude > best) best = magnitude, best_cos = std::abs(g * ux + h * uy) / magnitude;
+    }
+    return best >= min_magnitude && best_cos >= min_cos ? 1 : 0;
+  };
+  int outline = 0, edged = 0, ring = 0, ring_edged = 0;
+  const float ring_from = static_cast<float>(reach_px + 3), ring_to = ring_from + 1.0f;
+  for (int y = 0; y < box.height; ++y) {
+    const int v = y + box.y;
+    const uint8_t* d = drawn.ptr<uint8_t>(v);
+    const uint8_t* up = v > 0 ? drawn.ptr<uint8_t>(v - 1) : nullptr;
+    const uint8_t* down = v + 1 < drawn.rows ? drawn.ptr<uint8_t>(v + 1) : nullptr;
+    const float* depth_in = inner.ptr<float>(y);
+    for (int x = 0; x < box.width; ++x) {
+      const int u = x + box.x;
+      if (!d[u]) continue;
+      const bool border = (u > 0 && !d[u - 1]) || (u + 1 < drawn.cols && !d[u + 1]) || (up != nullptr && !up[u]) ||
+                          (down != nullptr && !down[u]);
+      if (border) {
+        const int hit = along(x, y);
+        if (hit < 0) continue;
+        ++outline;
+        edged += hit;
+      } else if (chance != nullptr && depth_in[x] >= ring_from && depth_in[x] < ring_to) {
+        const int hit = along(x, y);
+        if (hit < 0) continue;
+        ++ring;
+        ring_edged += hit;
+      }
+    }
+  }
+  if (chance != nullptr && ring > 0) *chance = static_cast<double>(ring_edged) / ring;
+  return outline > 0 ? static_cast<double>(edged) / outline : 0.0;
+}
+
 FrameCheck CheckAgainstFrame(const Frame& frame, const TemplateBank& bank, const Eigen::Isometry3d& cam_from_object,
                              double surface_m, double step_m) {
   FrameCheck check;
@@ -111,6 +182,8 @@ FrameCheck CheckAgainstFrame(const Frame& frame, const TemplateBank& bank, const
   }
   check.contour_support = ContourSupport(raster.depth, frame.depth, 2, static_cast<float>(step_m));
   check.edge_support = EdgeSupport(raster.depth, frame.rgb, kOutlineEdgeReachPx, kOutlineEdgeThreshold, &check.edge_chance);
+  check.oriented_edge = OrientedEdgeSupport(raster.depth, frame.rgb, kOutlineEdgeReachPx, kOutlineEdgeThreshold,
+                                            &check.oriented_edge_chance);
   const std::vector<Eigen::Vector3f>& surface = bank.ppf.empty() ? bank.online_mesh.vertices : bank.ppf.points;
   int inside = 0;
   for (const Eigen::Vector3f& point : surface) {

@@ -28,6 +28,13 @@ struct FrameCheck {
   /// kOutlineEdgeReachPx + 2 px inside the outline) with an edge within the same reach (0
   /// when there is no such interior). On a keyboard's keys every outline meets an edge.
   double edge_chance = 0.0;
+  /// Fraction of the outline whose strongest image gradient within kOutlineEdgeReachPx across
+  /// it is an edge along it (OrientedEdgeSupport), and the same test's rate on a line
+  /// kOutlineEdgeReachPx + 3 px inside the outline: what texture gives by chance (a third for
+  /// gradients of any direction). On a carpet or a keyboard every outline meets some edge,
+  /// few of them along it.
+  double oriented_edge = 0.0;
+  double oriented_edge_chance = 0.0;
   /// The share of the object's surface (the PPF model's evenly spaced samples; the online
   /// mesh's vertices without one) that projects into the image: a pose mostly beyond the
   /// image's border is checked on the little of it that is inside.
@@ -59,5 +66,15 @@ double ContourSupport(const cv::Mat& rendered, const cv::Mat& observed, int gap,
 /// `threshold` and twice it. 0 without an outline or without colour.
 double EdgeSupport(const cv::Mat& rendered, const cv::Mat& rgb, int reach_px, double threshold,
                    double* interior_share = nullptr);
+
+/// The fraction of a rendering's outline (as EdgeSupport's) where the strongest gradient of
+/// the grey image within `reach_px` across the outline (along its normal, from the distance
+/// to the outline) is at least `threshold` (3x3 Sobel, L2) and within kOutlineEdgeAngleDeg
+/// of the normal: an edge along the outline. `*chance`, when given: the same test on the
+/// pixels `reach_px` + 3 px inside the outline, with the normals there (0 without such
+/// pixels). 0 without an outline or without colour.
+constexpr double kOutlineEdgeAngleDeg = 30.0;
+double OrientedEdgeSupport(const cv::Mat& rendered, const cv::Mat& rgb, int reach_px, double threshold,
+                           double* chance = nullptr);
 
 }  // namespace g6d

@@ -226,6 +226,7 @@ py::dict ResultDict(PoseResult result, const BankPtr& bank) {
   d["contour_support"] = result.frame_check.contour_support;
   d["in_image"] = result.frame_check.in_image;
   d["edge_support"] = result.frame_check.edge_support;
+  d["oriented_edge"] = result.frame_check.oriented_edge;
   d["mask_refined_rounds"] = result.mask_refined_rounds;
   d["stages"] = StagesDict(result.stages);
   return d;
