@@ -42,13 +42,22 @@ TEST(EdgeSupport, CountsTheOutlineThatTheColourImageOutlines) {
   EXPECT_GT(EdgeSupport(at_border, cut, kOutlineEdgeReachPx, kOutlineEdgeThreshold), 0.95);
 }
 
+// A light square on a dark plain image, and its rendering.
+struct PlainSquare {
+  cv::Mat rgb = cv::Mat(100, 120, CV_8UC3, cv::Scalar(30, 30, 30));
+  cv::Mat rendered = cv::Mat::zeros(100, 120, CV_32F);
+  PlainSquare() {
+    rgb(cv::Rect(40, 30, 40, 40)).setTo(cv::Scalar(200, 190, 180));
+    rendered(cv::Rect(40, 30, 40, 40)).setTo(0.8f);
+  }
+};
+
 // On a plain surface the outline's edges are evidence; on a surface full of edges (a
 // keyboard's keys) the outline meets one wherever it lies: the chance says how often.
 TEST(EdgeSupport, MeasuresHowOftenTheInteriorMeetsAnEdgeByChance) {
-  cv::Mat plain(100, 120, CV_8UC3, cv::Scalar(30, 30, 30));
-  plain(cv::Rect(40, 30, 40, 40)).setTo(cv::Scalar(200, 190, 180));
-  cv::Mat rendered = cv::Mat::zeros(plain.size(), CV_32F);
-  rendered(cv::Rect(40, 30, 40, 40)).setTo(0.8f);
+  const PlainSquare square;
+  const cv::Mat& plain = square.rgb;
+  const cv::Mat& rendered = square.rendered;
   double chance = -1.0;
   EXPECT_GT(EdgeSupport(rendered, plain, kOutlineEdgeReachPx, kOutlineEdgeThreshold, &chance), 0.95);
   EXPECT_EQ(chance, 0.0);  // a uniform face inside the outline
@@ -72,10 +81,9 @@ TEST(EdgeSupport, MeasuresHowOftenTheInteriorMeetsAnEdgeByChance) {
 // outline, or on noise, the outline meets edges everywhere but few along it (about a third
 // of random directions lie within kOutlineEdgeAngleDeg), and the line inside says so too.
 TEST(OrientedEdgeSupport, CountsEdgesAlongTheOutlineOnly) {
-  cv::Mat plain(100, 120, CV_8UC3, cv::Scalar(30, 30, 30));
-  plain(cv::Rect(40, 30, 40, 40)).setTo(cv::Scalar(200, 190, 180));
-  cv::Mat rendered = cv::Mat::zeros(plain.size(), CV_32F);
-  rendered(cv::Rect(40, 30, 40, 40)).setTo(0.8f);
+  const PlainSquare square;
+  const cv::Mat& plain = square.rgb;
+  const cv::Mat& rendered = square.rendered;
   double chance = -1.0;
   EXPECT_GT(OrientedEdgeSupport(rendered, plain, kOutlineEdgeReachPx, kOutlineEdgeThreshold, &chance), 0.95);
   EXPECT_EQ(chance, 0.0);

@@ -14,6 +14,27 @@ namespace {
 
 bool ValidDepth(float z) { return z > 0.0f && std::isfinite(z); }
 
+// A rendering's pixels (`drawn`, CV_8U of the frame), their bounding box (`tight`) and that
+// box grown by `margin` inside the image (`box`), for the outline's colour tests; false
+// without colour of the rendering's size or without a rendered pixel.
+bool OutlineCrop(const cv::Mat& rendered, const cv::Mat& rgb, int margin, cv::Mat* drawn, cv::Rect* tight, cv::Rect* box) {
+  if (rgb.empty() || rgb.type() != CV_8UC3 || rgb.size() != rendered.size()) return false;
+  *drawn = rendered > 0.0f;
+  *tight = cv::boundingRect(*drawn);
+  if (tight->area() == 0) return false;
+  *box = (*tight + cv::Point(-margin, -margin) + cv::Size(2 * margin, 2 * margin)) & cv::Rect(0, 0, rendered.cols, rendered.rows);
+  return true;
+}
+
+// Inside the image, a rendered pixel (u, v) of `drawn` beside an unrendered one; the image's
+// border is no outline.
+bool OnOutline(const cv::Mat& drawn, int u, int v) {
+  const uint8_t* d = drawn.ptr<uint8_t>(v);
+  if (!d[u]) return false;
+  return (u > 0 && !d[u - 1]) || (u + 1 < drawn.cols && !d[u + 1]) || (v > 0 && !drawn.ptr<uint8_t>(v - 1)[u]) ||
+         (v + 1 < drawn.rows && !drawn.ptr<uint8_t>(v + 1)[u]);
+}
+
 }  // namespace
 
 double ContourSupport(const cv::Mat& rendered, const cv::Mat& observed, int gap, float step_m) {
@@ -42,15 +63,11 @@ double ContourSupport(const cv::Mat& rendered, const cv::Mat& observed, int gap,
 
 double EdgeSupport(const cv::Mat& rendered, const cv::Mat& rgb, int reach_px, double threshold, double* interior_share) {
   if (interior_share != nullptr) *interior_share = 0.0;
-  if (rgb.empty() || rgb.type() != CV_8UC3 || rgb.size() != rendered.size()) return 0.0;
-  const cv::Mat drawn = rendered > 0.0f;
-  const cv::Rect tight = cv::boundingRect(drawn);
-  if (tight.area() == 0) return 0.0;
   // Canny's hysteresis reaches a few pixels: a margin beyond the reach keeps the crop's own
   // border out of the outline's neighbourhood.
-  const int margin = reach_px + 4;
-  const cv::Rect box = (tight + cv::Point(-margin, -margin) + cv::Size(2 * margin, 2 * margin)) &
-                       cv::Rect(0, 0, rendered.cols, rendered.rows);
+  cv::Mat drawn;
+  cv::Rect tight, box;
+  if (!OutlineCrop(rendered, rgb, reach_px + 4, &drawn, &tight, &box)) return 0.0;
   cv::Mat gray, edges;
   cv::cvtColor(rgb(box), gray, cv::COLOR_RGB2GRAY);
   cv::Canny(gray, edges, threshold, 2.0 * threshold);
@@ -59,16 +76,9 @@ double EdgeSupport(const cv::Mat& rendered, const cv::Mat& rgb, int reach_px, do
   }
   int outline = 0, edged = 0;
   for (int v = tight.y; v < tight.y + tight.height; ++v) {
-    const uint8_t* d = drawn.ptr<uint8_t>(v);
-    const uint8_t* up = v > 0 ? drawn.ptr<uint8_t>(v - 1) : nullptr;
-    const uint8_t* down = v + 1 < drawn.rows ? drawn.ptr<uint8_t>(v + 1) : nullptr;
     const uint8_t* e = edges.ptr<uint8_t>(v - box.y);
     for (int u = tight.x; u < tight.x + tight.width; ++u) {
-      if (!d[u]) continue;
-      // Inside the image, a rendered pixel beside an unrendered one; the image's border is no outline.
-      const bool border = (u > 0 && !d[u - 1]) || (u + 1 < drawn.cols && !d[u + 1]) || (up != nullptr && !up[u]) ||
-                          (down != nullptr && !down[u]);
-      if (!border) continue;
+      if (!OnOutline(drawn, u, v)) continue;
       ++outline;
       edged += e[u - box.x] != 0;
     }
@@ -87,13 +97,9 @@ double EdgeSupport(const cv::Mat& rendered, const cv::Mat& rgb, int reach_px, do
 
 double OrientedEdgeSupport(const cv::Mat& rendered, const cv::Mat& rgb, int reach_px, double threshold, double* chance) {
   if (chance != nullptr) *chance = 0.0;
-  if (rgb.empty() || rgb.type() != CV_8UC3 || rgb.size() != rendered.size()) return 0.0;
-  const cv::Mat drawn = rendered > 0.0f;
-  const cv::Rect tight = cv::boundingRect(drawn);
-  if (tight.area() == 0) return 0.0;
-  const int margin = reach_px + 2;
-  const cv::Rect box = (tight + cv::Point(-margin, -margin) + cv::Size(2 * margin, 2 * margin)) &
-                       cv::Rect(0, 0, rendered.cols, rendered.rows);
+  cv::Mat drawn;
+  cv::Rect tight, box;
+  if (!OutlineCrop(rendered, rgb, reach_px + 2, &drawn, &tight, &box)) return 0.0;
   cv::Mat gray, gx, gy;
   cv::cvtColor(rgb(box), gray, cv::COLOR_RGB2GRAY);
   cv::Sobel(gray, gx, CV_32F, 1, 0, 3);
@@ -131,15 +137,11 @@ double OrientedEdgeSupport(const cv::Mat& rendered, const cv::Mat& rgb, int reac
   for (int y = 0; y < box.height; ++y) {
     const int v = y + box.y;
     const uint8_t* d = drawn.ptr<uint8_t>(v);
-    const uint8_t* up = v > 0 ? drawn.ptr<uint8_t>(v - 1) : nullptr;
-    const uint8_t* down = v + 1 < drawn.rows ? drawn.ptr<uint8_t>(v + 1) : nullptr;
     const float* depth_in = inner.ptr<float>(y);
     for (int x = 0; x < box.width; ++x) {
       const int u = x + box.x;
       if (!d[u]) continue;
-      const bool border = (u > 0 && !d[u - 1]) || (u + 1 < drawn.cols && !d[u + 1]) || (up != nullptr && !up[u]) ||
-                          (down != nullptr && !down[u]);
-      if (border) {
+      if (OnOutline(drawn, u, v)) {
         const int hit = along(x, y);
         if (hit < 0) continue;
         ++outline;
