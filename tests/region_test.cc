@@ -52,16 +52,24 @@ struct PlainSquare {
   }
 };
 
+// Both edge measures on the plain square: its whole outline is on an edge, and its uniform
+// face inside meets none by chance. `measure` is EdgeSupport or OrientedEdgeSupport.
+template <typename Measure>
+void ExpectThePlainSquaresOutlineSupported(Measure measure) {
+  const PlainSquare square;
+  double chance = -1.0;
+  EXPECT_GT(measure(square.rendered, square.rgb, kOutlineEdgeReachPx, kOutlineEdgeThreshold, &chance), 0.95);
+  EXPECT_EQ(chance, 0.0);
+}
+
 // On a plain surface the outline's edges are evidence; on a surface full of edges (a
 // keyboard's keys) the outline meets one wherever it lies: the chance says how often.
 TEST(EdgeSupport, MeasuresHowOftenTheInteriorMeetsAnEdgeByChance) {
+  ExpectThePlainSquaresOutlineSupported(EdgeSupport);
   const PlainSquare square;
-  const cv::Mat& plain = square.rgb;
   const cv::Mat& rendered = square.rendered;
   double chance = -1.0;
-  EXPECT_GT(EdgeSupport(rendered, plain, kOutlineEdgeReachPx, kOutlineEdgeThreshold, &chance), 0.95);
-  EXPECT_EQ(chance, 0.0);  // a uniform face inside the outline
-  cv::Mat keys(plain.size(), CV_8UC3, cv::Scalar(30, 30, 30));
+  cv::Mat keys(rendered.size(), CV_8UC3, cv::Scalar(30, 30, 30));
   for (int v = 0; v < keys.rows; v += 6) {
     for (int u = (v / 6) % 2 * 6; u < keys.cols; u += 12) {
       keys(cv::Rect(u, v, 6, 6) & cv::Rect(0, 0, keys.cols, keys.rows)).setTo(cv::Scalar(220, 220, 220));
@@ -71,7 +79,7 @@ TEST(EdgeSupport, MeasuresHowOftenTheInteriorMeetsAnEdgeByChance) {
   EXPECT_GT(on_keys, 0.9);
   EXPECT_GT(chance, 0.9);
   // No interior (a rendering thinner than twice the reach): nothing to compare, 0.
-  cv::Mat thin = cv::Mat::zeros(plain.size(), CV_32F);
+  cv::Mat thin = cv::Mat::zeros(rendered.size(), CV_32F);
   thin(cv::Rect(40, 30, 40, 4)).setTo(0.8f);
   EdgeSupport(thin, keys, kOutlineEdgeReachPx, kOutlineEdgeThreshold, &chance);
   EXPECT_EQ(chance, 0.0);
@@ -81,13 +89,11 @@ TEST(EdgeSupport, MeasuresHowOftenTheInteriorMeetsAnEdgeByChance) {
 // outline, or on noise, the outline meets edges everywhere but few along it (about a third
 // of random directions lie within kOutlineEdgeAngleDeg), and the line inside says so too.
 TEST(OrientedEdgeSupport, CountsEdgesAlongTheOutlineOnly) {
+  ExpectThePlainSquaresOutlineSupported(OrientedEdgeSupport);
   const PlainSquare square;
-  const cv::Mat& plain = square.rgb;
   const cv::Mat& rendered = square.rendered;
   double chance = -1.0;
-  EXPECT_GT(OrientedEdgeSupport(rendered, plain, kOutlineEdgeReachPx, kOutlineEdgeThreshold, &chance), 0.95);
-  EXPECT_EQ(chance, 0.0);
-  cv::Mat turned(plain.size(), CV_8UC3);
+  cv::Mat turned(rendered.size(), CV_8UC3);
   for (int v = 0; v < turned.rows; ++v) {
     for (int u = 0; u < turned.cols; ++u) {
       const bool light = (((u + v) / 8) + ((u - v + 400) / 8)) % 2 == 0;
@@ -98,7 +104,7 @@ TEST(OrientedEdgeSupport, CountsEdgesAlongTheOutlineOnly) {
   // (where the turned keys' corners meet the outline, some gradients do run along it)
   EXPECT_LT(OrientedEdgeSupport(rendered, turned, kOutlineEdgeReachPx, kOutlineEdgeThreshold, &chance), 0.5);
   EXPECT_LT(chance, 0.5);
-  cv::Mat noise(plain.size(), CV_8UC3);
+  cv::Mat noise(rendered.size(), CV_8UC3);
   cv::RNG rng(7);
   rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
   const double on_noise = OrientedEdgeSupport(rendered, noise, kOutlineEdgeReachPx, kOutlineEdgeThreshold, &chance);
@@ -106,10 +112,10 @@ TEST(OrientedEdgeSupport, CountsEdgesAlongTheOutlineOnly) {
   EXPECT_LT(on_noise, 0.55);
   EXPECT_GT(chance, 0.15);
   EXPECT_LT(chance, 0.55);
-  const cv::Mat grey(plain.size(), CV_8UC3, cv::Scalar(90, 90, 90));
+  const cv::Mat grey(rendered.size(), CV_8UC3, cv::Scalar(90, 90, 90));
   EXPECT_EQ(OrientedEdgeSupport(rendered, grey, kOutlineEdgeReachPx, kOutlineEdgeThreshold), 0.0);
   EXPECT_EQ(OrientedEdgeSupport(rendered, cv::Mat(), kOutlineEdgeReachPx, kOutlineEdgeThreshold), 0.0);
-  EXPECT_EQ(OrientedEdgeSupport(cv::Mat::zeros(plain.size(), CV_32F), plain, kOutlineEdgeReachPx, kOutlineEdgeThreshold), 0.0);
+  EXPECT_EQ(OrientedEdgeSupport(cv::Mat::zeros(rendered.size(), CV_32F), square.rgb, kOutlineEdgeReachPx, kOutlineEdgeThreshold), 0.0);
 }
 
 constexpr int kWidth = 320, kHeight = 240;
