@@ -16,7 +16,8 @@
 #   OUT=out/absent_real       <set>.txt (report), .log, .records.csv (absent = 1 rows: the answers anyway)
 #   PER_IMAGE=20              absent requests per image (more than there are: all of them)
 # Prints per set the targets' figures and the line "requests for absent objects: N; answered
-# NO_SOLUTION ...". The dataset views (symlinks, models_info.json merged) live in a temp dir.
+# NO_SOLUTION ...", then both real sets pooled. The dataset views (symlinks, models_info.json
+# merged) live in a temp dir.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 DATA_DIR="$(realpath "${DATA_DIR:-../shared/data}")"
@@ -60,3 +61,14 @@ EOF
   echo "[absent_real] ${set}: $(grep -m1 '^| \*\*all' "${OUT}/${set}.txt")"
   echo "[absent_real] ${set}: $(grep -m1 'requests for absent objects' "${OUT}/${set}.txt")"
 done
+# Both real sets pooled (the issue's bar: >= 95% NO_SOLUTION).
+python3 - "${OUT}/ycbv_clutter.txt" "${OUT}/ycbv_real.txt" <<'EOF'
+import re, sys
+asked = silent = sure = 0
+for path in sys.argv[1:]:
+    line = next(l for l in open(path) if l.startswith("requests for absent objects"))
+    m = re.search(r"objects: (\d+); answered NO_SOLUTION (\d+) .*confidence >= 0.9 (\d+)", line)
+    asked += int(m.group(1)); silent += int(m.group(2)); sure += int(m.group(3))
+print(f"[absent_real] both real sets: {asked} requests, NO_SOLUTION {silent} ({100.0 * silent / max(1, asked):.1f}%), "
+      f"answered at >= 0.9 {sure}")
+EOF
