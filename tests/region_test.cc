@@ -52,6 +52,19 @@ struct PlainSquare {
   }
 };
 
+// A two-tone image of the plain square's size: light (220) where `light(u, v)`, dark (30)
+// elsewhere.
+template <typename Light>
+cv::Mat TwoTone(Light light) {
+  cv::Mat image(PlainSquare().rgb.size(), CV_8UC3);
+  for (int v = 0; v < image.rows; ++v) {
+    for (int u = 0; u < image.cols; ++u) {
+      image.at<cv::Vec3b>(v, u) = light(u, v) ? cv::Vec3b(220, 220, 220) : cv::Vec3b(30, 30, 30);
+    }
+  }
+  return image;
+}
+
 // Both edge measures on the plain square: its whole outline is on an edge, and its uniform
 // face inside meets none by chance. `measure` is EdgeSupport or OrientedEdgeSupport.
 template <typename Measure>
@@ -69,12 +82,7 @@ TEST(EdgeSupport, MeasuresHowOftenTheInteriorMeetsAnEdgeByChance) {
   const PlainSquare square;
   const cv::Mat& rendered = square.rendered;
   double chance = -1.0;
-  cv::Mat keys(rendered.size(), CV_8UC3, cv::Scalar(30, 30, 30));
-  for (int v = 0; v < keys.rows; v += 6) {
-    for (int u = (v / 6) % 2 * 6; u < keys.cols; u += 12) {
-      keys(cv::Rect(u, v, 6, 6) & cv::Rect(0, 0, keys.cols, keys.rows)).setTo(cv::Scalar(220, 220, 220));
-    }
-  }
+  const cv::Mat keys = TwoTone([](int u, int v) { return (u / 6 + v / 6) % 2 == 0; });  // 6 px keys
   const double on_keys = EdgeSupport(rendered, keys, kOutlineEdgeReachPx, kOutlineEdgeThreshold, &chance);
   EXPECT_GT(on_keys, 0.9);
   EXPECT_GT(chance, 0.9);
@@ -93,13 +101,7 @@ TEST(OrientedEdgeSupport, CountsEdgesAlongTheOutlineOnly) {
   const PlainSquare square;
   const cv::Mat& rendered = square.rendered;
   double chance = -1.0;
-  cv::Mat turned(rendered.size(), CV_8UC3);
-  for (int v = 0; v < turned.rows; ++v) {
-    for (int u = 0; u < turned.cols; ++u) {
-      const bool light = (((u + v) / 8) + ((u - v + 400) / 8)) % 2 == 0;
-      turned.at<cv::Vec3b>(v, u) = light ? cv::Vec3b(220, 220, 220) : cv::Vec3b(30, 30, 30);
-    }
-  }
+  const cv::Mat turned = TwoTone([](int u, int v) { return ((u + v) / 8 + (u - v + 400) / 8) % 2 == 0; });
   EXPECT_GT(EdgeSupport(rendered, turned, kOutlineEdgeReachPx, kOutlineEdgeThreshold), 0.8);
   // (where the turned keys' corners meet the outline, some gradients do run along it)
   EXPECT_LT(OrientedEdgeSupport(rendered, turned, kOutlineEdgeReachPx, kOutlineEdgeThreshold, &chance), 0.5);

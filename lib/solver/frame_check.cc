@@ -15,16 +15,22 @@ namespace {
 bool ValidDepth(float z) { return z > 0.0f && std::isfinite(z); }
 
 // A rendering's pixels (`drawn`, CV_8U of the frame), their bounding box (`tight`) and that
-// box grown by `margin` inside the image (`box`), for the outline's colour tests; false
-// without colour of the rendering's size or without a rendered pixel.
-bool OutlineCrop(const cv::Mat& rendered, const cv::Mat& rgb, int margin, cv::Mat* drawn, cv::Rect* tight, cv::Rect* box) {
-  if (rgb.empty() || rgb.type() != CV_8UC3 || rgb.size() != rendered.size()) return false;
-  *drawn = rendered > 0.0f;
-  *tight = cv::boundingRect(*drawn);
-  if (tight->area() == 0) return false;
-  *box = (*tight + cv::Point(-margin, -margin) + cv::Size(2 * margin, 2 * margin)) & cv::Rect(0, 0, rendered.cols, rendered.rows);
-  return true;
-}
+// box grown by `margin` inside the image (`box`) and the grey image there (`gray`), for the
+// outline's colour tests; false without colour of the rendering's size or without a rendered
+// pixel.
+struct OutlineCrop {
+  cv::Mat drawn, gray;
+  cv::Rect tight, box;
+  bool Take(const cv::Mat& rendered, const cv::Mat& rgb, int margin) {
+    if (rgb.empty() || rgb.type() != CV_8UC3 || rgb.size() != rendered.size()) return false;
+    drawn = rendered > 0.0f;
+    tight = cv::boundingRect(drawn);
+    if (tight.area() == 0) return false;
+    box = (tight + cv::Point(-margin, -margin) + cv::Size(2 * margin, 2 * margin)) & cv::Rect(0, 0, rendered.cols, rendered.rows);
+    cv::cvtColor(rgb(box), gray, cv::COLOR_RGB2GRAY);
+    return true;
+  }
+};
 
 // Inside the image, a rendered pixel (u, v) of `drawn` beside an unrendered one; the image's
 // border is no outline.
@@ -65,12 +71,12 @@ double EdgeSupport(const cv::Mat& rendered, const cv::Mat& rgb, int reach_px, do
   if (interior_share != nullptr) *interior_share = 0.0;
   // Canny's hysteresis reaches a few pixels: a margin beyond the reach keeps the crop's own
   // border out of the outline's neighbourhood.
-  cv::Mat drawn;
-  cv::Rect tight, box;
-  if (!OutlineCrop(rendered, rgb, reach_px + 4, &drawn, &tight, &box)) return 0.0;
-  cv::Mat gray, edges;
-  cv::cvtColor(rgb(box), gray, cv::COLOR_RGB2GRAY);
-  cv::Canny(gray, edges, threshold, 2.0 * threshold);
+  OutlineCrop crop;
+  if (!crop.Take(rendered, rgb, reach_px + 4)) return 0.0;
+  const cv::Mat& drawn = crop.drawn;
+  const cv::Rect &tight = crop.tight, &box = crop.box;
+  cv::Mat edges;
+  cv::Canny(crop.gray, edges, threshold, 2.0 * threshold);
   if (reach_px > 0) {
     cv::dilate(edges, edges, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * reach_px + 1, 2 * reach_px + 1)));
   }
@@ -97,13 +103,13 @@ double EdgeSupport(const cv::Mat& rendered, const cv::Mat& rgb, int reach_px, do
 
 double OrientedEdgeSupport(const cv::Mat& rendered, const cv::Mat& rgb, int reach_px, double threshold, double* chance) {
   if (chance != nullptr) *chance = 0.0;
-  cv::Mat drawn;
-  cv::Rect tight, box;
-  if (!OutlineCrop(rendered, rgb, reach_px + 2, &drawn, &tight, &box)) return 0.0;
-  cv::Mat gray, gx, gy;
-  cv::cvtColor(rgb(box), gray, cv::COLOR_RGB2GRAY);
-  cv::Sobel(gray, gx, CV_32F, 1, 0, 3);
-  cv::Sobel(gray, gy, CV_32F, 0, 1, 3);
+  OutlineCrop crop;
+  if (!crop.Take(rendered, rgb, reach_px + 2)) return 0.0;
+  const cv::Mat& drawn = crop.drawn;
+  const cv::Rect& box = crop.box;
+  cv::Mat gx, gy;
+  cv::Sobel(crop.gray, gx, CV_32F, 1, 0, 3);
+  cv::Sobel(crop.gray, gy, CV_32F, 0, 1, 3);
   // The outline's normals: the gradient of the signed distance to it (inward).
   const cv::Mat inside = drawn(box);
   cv::Mat inner, outer, outside;
