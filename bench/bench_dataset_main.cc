@@ -320,8 +320,9 @@ int main(int argc, char** argv) {
   std::vector<double> detect_confidence;
   app.add_option("--detect-confidence", detect_confidence,
                  "--masks none: the confidence's weights (scripts/calibrate_detection.py): bias, S_A, ambiguous, "
-                 "on_surface, free_space, contour, region_iou, colour, in_image, edge, runner_up (default: DetectOptions')")
-      ->expected(11)
+                 "on_surface, free_space, contour, region_iou, colour, in_image, edge, runner_up[, free_band] (default: DetectOptions'; "
+                 "an old list of 11 leaves free_band's weight at 0)")
+      ->expected(11, 12)
       ->delimiter(',');
   app.add_option("--detect-min-confidence", detect_options.min_confidence,
                  "--masks none: an answer less confident than this is no answer")
@@ -407,7 +408,8 @@ int main(int argc, char** argv) {
                          &detect_options.confidence_free_space_weight, &detect_options.confidence_contour_weight,
                          &detect_options.confidence_region_iou_weight, &detect_options.confidence_colour_weight,
                          &detect_options.confidence_in_image_weight, &detect_options.confidence_edge_weight,
-                         &detect_options.confidence_runner_up_weight};
+                         &detect_options.confidence_runner_up_weight, &detect_options.confidence_free_band_weight};
+    if (detect_confidence.size() == 11) detect_options.confidence_free_band_weight = 0.0;
     for (size_t k = 0; k < detect_confidence.size(); ++k) *weights[k] = detect_confidence[k];
   }
 

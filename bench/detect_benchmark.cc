@@ -83,7 +83,7 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
     if (!records) G6D_THROW("cannot write '" << args.records_csv << "'");
     std::fprintf(records,
                  "scene_id,im_id,obj_id,absent,score,confidence,ambiguous,on_surface,free_space,contour_support,"
-                 "rendered_pixels,region_iou,size_term,colour_term,shape_term,rank,runner_up_margin,error_d,correct,in_image,area_term,appearance_valid,appearance_agreement,support_penetration_mm,bare_support_share,edge_support,solve_runner_up_gap,flips_checked,edge_chance,lightness_ratio,oriented_edge,oriented_edge_chance\n");
+                 "rendered_pixels,region_iou,size_term,colour_term,shape_term,rank,runner_up_margin,error_d,correct,in_image,area_term,appearance_valid,appearance_agreement,support_penetration_mm,bare_support_share,edge_support,solve_runner_up_gap,flips_checked,edge_chance,lightness_ratio,oriented_edge,oriented_edge_chance,free_space_band_px\n");
   }
   if (!args.pictures_dir.empty()) {  // made when missing, before an hour of solving
     std::error_code error;
@@ -198,7 +198,7 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
           if (!report.raised.empty()) bare &= ~report.raised;
           bare_share = static_cast<double>(cv::countNonZero(bare)) / std::max(1, cv::countNonZero(agreeing));
         }
-        std::fprintf(records, "%d,%d,%d,%d,%.6f,%.6f,%d,%.4f,%.4f,%.4f,%d,%.4f,%.4f,%.4f,%.4f,%.4f,%.6f,%.4f,%d,%.4f,%.4f,%d,%.4f,%.2f,%.4f,%.4f,%.6f,%d,%.4f,%.4f,%.4f,%.4f\n", scene_id,
+        std::fprintf(records, "%d,%d,%d,%d,%.6f,%.6f,%d,%.4f,%.4f,%.4f,%d,%.4f,%.4f,%.4f,%.4f,%.4f,%.6f,%.4f,%d,%.4f,%.4f,%d,%.4f,%.2f,%.4f,%.4f,%.6f,%d,%.4f,%.4f,%.4f,%.4f,%.4f\n", scene_id,
                      im_id, obj_id, absent ? 1 : 0, detection.result.score, detection.result.confidence,
                      detection.result.ambiguous ? 1 : 0, detection.check.on_surface, detection.check.free_space,
                      detection.check.contour_support, detection.check.rendered_pixels, detection.region_iou,
@@ -210,7 +210,7 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
                      detection.check.edge_support,
                      RunnerUpGap(detection.result),
                      detection.result.stages.flips_checked, detection.check.edge_chance, detection.lightness_ratio,
-                     detection.check.oriented_edge, detection.check.oriented_edge_chance);
+                     detection.check.oriented_edge, detection.check.oriented_edge_chance, detection.check.free_space_band_px);
       }
       if (absent) {
         ++absent_answered;

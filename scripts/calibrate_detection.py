@@ -10,7 +10,11 @@ a logistic in what the answer already has,
     (the share of its outline whose strongest image gradient across it runs along it;
     edge_support, any edge near the outline, is kept as a column), solve_runner_up_gap (RunnerUpGap:
     the S of the best distinct finalist of the answer's own solve, its flips included, less S_A,
-    at most 0.25; 0.25 when it had none),
+    at most 0.25; 0.25 when it had none), free_space_band_px (FrameCheck: the pixels the
+    camera sees through per outline pixel, the mean width of the band the answer hangs over
+    what is behind it; the share of its pixels, free_space, is left out by default: a right
+    answer's rim of a pixel or two is a large share of a small rendering and a tiny one of a
+    large rendering, and the share told the scenes a fit had not seen worse),
 
 Answers for absent objects (--absent-requests) are wrong answers. Answers refused by rule
 (confidence 0: behind the support) are left out: no weights make them answers. Measured honestly:
@@ -24,8 +28,10 @@ another instance, not a rival, and is not a feature.)
     python3 scripts/calibrate_detection.py synth_dev=out/geometry/new/synth_dev_none.records.csv \\
         lmo=out/geometry/new/lmo_none.records.csv ycbv_real=... ycbv_clutter=... [--without=in_image]
 
---without=FEATURE (repeatable) fits without that feature, for an ablation; --with=COLUMN
-(repeatable) adds a column of the records as a feature (e.g. --with=runner_up_margin).
+--without=FEATURE (repeatable) fits without that feature, for an ablation (free_space is left
+out unless --keep=free_space); --with=COLUMN (repeatable) adds a column of the records as a
+feature (e.g. --with=runner_up_margin). The fit's weights are printed by name and as the list
+for g6d-bench-dataset --detect-confidence (0 for a feature left out).
 """
 import csv
 import os
@@ -35,9 +41,12 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from calibrate_confidence import fit, predict, report  # noqa: E402
 
 FEATURES = ["bias", "score", "ambiguous", "on_surface", "free_space", "contour", "region_iou", "colour", "in_image",
-            "edge", "runner_up"]
+            "edge", "runner_up", "free_band"]
 COLUMNS = ["score", "ambiguous", "on_surface", "free_space", "contour_support", "region_iou", "colour_term", "in_image",
-           "oriented_edge", "solve_runner_up_gap"]
+           "oriented_edge", "solve_runner_up_gap", "free_space_band_px"]
+# DetectOptions' confidence_* fields, in the order of g6d-bench-dataset --detect-confidence.
+OPTION_ORDER = list(FEATURES)
+DEFAULT_WITHOUT = {"free_space"}
 
 
 def features(r):
@@ -64,9 +73,10 @@ def load(path):
 def main():
     args = sys.argv[1:]
     # --without=FEATURE (repeatable): fit without that feature (an ablation).
-    without = {a.split("=", 1)[1] for a in args if a.startswith("--without=")}
+    keep = {a.split("=", 1)[1] for a in args if a.startswith("--keep=")}
+    without = {a.split("=", 1)[1] for a in args if a.startswith("--without=")} | (DEFAULT_WITHOUT - keep)
     extra = [a.split("=", 1)[1] for a in args if a.startswith("--with=")]
-    args = [a for a in args if not a.startswith("--without=") and not a.startswith("--with=")]
+    args = [a for a in args if not a.startswith(("--without=", "--with=", "--keep="))]
     for column in extra:
         FEATURES.append(column)
         COLUMNS.append(column)
@@ -81,6 +91,9 @@ def main():
     w = fit(everything, features=features)
     print(f"fit on all {len(everything)} answers of {', '.join(datasets)}:")
     print("  " + ", ".join(f"confidence_{name}{'' if name == 'bias' else '_weight'} = {x:.3f}" for name, x in zip(FEATURES, w)))
+    fitted = dict(zip(FEATURES, w))
+    if not extra:
+        print("  --detect-confidence " + ",".join(f"{fitted.get(name, 0.0):.3f}" for name in OPTION_ORDER))
     for name, rows in datasets.items():
         report(rows, lambda r: r["had"], f"{name}, the confidence the answers had")
         if len(datasets) > 1:

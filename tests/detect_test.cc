@@ -682,9 +682,14 @@ TEST(DetectionConfidence, RisesWithWhatTheFrameConfirmsAndFallsWithS) {
   FrameCheck outside = check;
   outside.in_image = 0.2;
   EXPECT_LT(DetectionConfidence(options, result, outside, 0.8, 0.5), options.min_confidence);
+  // The camera sees the table through a band 5 px wide along its outline (a model laid onto
+  // a smaller object), against a pixel's rim of a right answer.
   FrameCheck seen_through = check;
-  seen_through.free_space = 0.4;  // the camera sees the table through 40% of it
+  seen_through.free_space_band_px = 5.0;
   EXPECT_LT(DetectionConfidence(options, result, seen_through, 0.8, 0.5), base - 0.2);
+  FrameCheck rim = check;
+  rim.free_space_band_px = 1.0;
+  EXPECT_LT(DetectionConfidence(options, result, seen_through, 0.8, 0.5), DetectionConfidence(options, result, rim, 0.8, 0.5));
   // An answer inside the support under it is no answer, unless that rule is off.
   PoseResult inside = result;
   inside.stages.answer_behind_support = true;

@@ -61,6 +61,7 @@ PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, con
   detect.confidence_in_image_weight = 0.0;
   detect.confidence_edge_weight = 0.0;
   detect.confidence_runner_up_weight = 0.0;
+  detect.confidence_free_band_weight = 0.0;
   // Inside one mask there are few segments: unions of up to 4 (a drill's handle, body and
   // battery split at their own creases, and a fragment) cost little. On LM-O merged masks
   // 93.5% against 93.3% with 3, boxes 92.4% against 91.8% (bench/RESULTS.md, issue 22).

@@ -464,7 +464,8 @@ double DetectionConfidence(const DetectOptions& options, const PoseResult& resul
                        options.confidence_colour_weight * colour_term +
                        options.confidence_in_image_weight * check.in_image +
                        options.confidence_edge_weight * check.oriented_edge +
-                       options.confidence_runner_up_weight * RunnerUpGap(result);
+                       options.confidence_runner_up_weight * RunnerUpGap(result) +
+                       options.confidence_free_band_weight * check.free_space_band_px;
   return 1.0 / (1.0 + std::exp(-logit));
 }
 

@@ -63,7 +63,8 @@ std::string DetectOptions::Check() const {
              std::isfinite(confidence_on_surface_weight) && std::isfinite(confidence_free_space_weight) &&
              std::isfinite(confidence_contour_weight) && std::isfinite(confidence_region_iou_weight) &&
              std::isfinite(confidence_colour_weight) && std::isfinite(confidence_in_image_weight) &&
-             std::isfinite(confidence_edge_weight) && std::isfinite(confidence_runner_up_weight))) {
+             std::isfinite(confidence_edge_weight) && std::isfinite(confidence_runner_up_weight) &&
+             std::isfinite(confidence_free_band_weight))) {
     out << "DetectOptions.confidence_* must be finite";
   }
   else if (!(ppf_contour_step_m >= 0.0)) out << "DetectOptions.ppf_contour_step_m must be >= 0 (got " << ppf_contour_step_m << ")";

@@ -43,6 +43,22 @@ bool OnOutline(const cv::Mat& drawn, int u, int v) {
 
 }  // namespace
 
+double FreeSpaceBand(const cv::Mat& rendered, const cv::Mat& observed, float tolerance_m) {
+  const cv::Mat drawn = rendered > 0.0f;
+  const cv::Rect tight = cv::boundingRect(drawn);
+  int outline = 0, behind = 0;
+  for (int v = tight.y; v < tight.y + tight.height; ++v) {
+    const float* r = rendered.ptr<float>(v);
+    const float* z = observed.ptr<float>(v);
+    for (int u = tight.x; u < tight.x + tight.width; ++u) {
+      if (!(r[u] > 0.0f)) continue;
+      outline += OnOutline(drawn, u, v);
+      behind += ValidDepth(z[u]) && z[u] > r[u] + tolerance_m;
+    }
+  }
+  return outline > 0 ? static_cast<double>(behind) / outline : 0.0;
+}
+
 double ContourSupport(const cv::Mat& rendered, const cv::Mat& observed, int gap, float step_m) {
   int outline = 0, stepped = 0;
   const int rows = rendered.rows, cols = rendered.cols;
@@ -188,6 +204,7 @@ FrameCheck CheckAgainstFrame(const Frame& frame, const TemplateBank& bank, const
     check.on_surface = static_cast<double>(on_surface) / check.rendered_pixels;
     check.free_space = static_cast<double>(free_space) / check.rendered_pixels;
   }
+  check.free_space_band_px = FreeSpaceBand(raster.depth, frame.depth, tolerance);
   check.contour_support = ContourSupport(raster.depth, frame.depth, 2, static_cast<float>(step_m));
   check.edge_support = EdgeSupport(raster.depth, frame.rgb, kOutlineEdgeReachPx, kOutlineEdgeThreshold, &check.edge_chance);
   check.oriented_edge = OrientedEdgeSupport(raster.depth, frame.rgb, kOutlineEdgeReachPx, kOutlineEdgeThreshold,

@@ -19,6 +19,11 @@ struct FrameCheck {
   int rendered_pixels = 0;       ///< rendered pixels (in the image) with observed depth
   double on_surface = 0.0;       ///< fraction of them whose depth lies on the rendered surface
   double free_space = 0.0;       ///< ... whose depth lies behind it: the camera sees through the object
+  /// The pixels the camera sees through (free_space's) per outline pixel (FreeSpaceBand): the
+  /// mean width in pixels of the band along the outline that lies in front of what the camera
+  /// sees. A right pose misses by a pixel or two at its outline, whatever its size; a model
+  /// laid onto a smaller object hangs over it by a wide band.
+  double free_space_band_px = 0.0;
   double contour_support = 0.0;  ///< fraction of the outline where the depth steps
   /// Fraction of the outline that the colour image outlines too (an edge within
   /// kOutlineEdgeReachPx: EdgeSupport). A part lying flat on a table or a bin's floor shows
@@ -53,6 +58,12 @@ constexpr int kOutlineEdgeReachPx = 2;
 /// image's edges (EdgeSupport).
 FrameCheck CheckAgainstFrame(const Frame& frame, const TemplateBank& bank, const Eigen::Isometry3d& cam_from_object,
                              double surface_m, double step_m);
+
+/// The rendered pixels (`rendered`, CV_32F metres, 0 = empty) whose `observed` depth (CV_32F
+/// metres, same size) lies more than `tolerance_m` behind the rendering, per pixel of the
+/// rendering's outline (rendered pixels with an unrendered 4-neighbour; the image's border is
+/// no outline): the mean width of the band the camera sees through. 0 without an outline.
+double FreeSpaceBand(const cv::Mat& rendered, const cv::Mat& observed, float tolerance_m);
 
 /// The fraction of a rendering's outline (`rendered`, CV_32F metres, 0 = empty) where the
 /// `observed` depth steps: for each rendered pixel with an unrendered 4-neighbour `gap` pixels

@@ -31,6 +31,8 @@ def test_masks_equal_g6d_solve(sample, sample_banks, image, tmp_path):
         # The rendered sample's objects end at a sharp colour edge: most of a right answer's
         # outline has an edge along it (detection's confidence reads this share).
         assert 0.5 < result.oriented_edge <= 1.0 and 0.0 <= result.edge_support <= 1.0
+        # A right answer sees past its outline by a pixel or two at most, not through a band.
+        assert 0.0 <= result.free_space_band_px < 2.0
 
 
 def test_options_reach_the_solver(sample, sample_banks, image, tmp_path):

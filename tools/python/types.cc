@@ -223,6 +223,7 @@ py::dict ResultDict(PoseResult result, const BankPtr& bank) {
   d["mask_iou"] = result.mask_iou;
   d["on_surface"] = result.frame_check.on_surface;
   d["free_space"] = result.frame_check.free_space;
+  d["free_space_band_px"] = result.frame_check.free_space_band_px;
   d["contour_support"] = result.frame_check.contour_support;
   d["in_image"] = result.frame_check.in_image;
   d["edge_support"] = result.frame_check.edge_support;
@@ -401,7 +402,7 @@ void BindOptions(py::module_& module) {
         G6D_FIELD(min_contour_support) G6D_FIELD(confidence_bias) G6D_FIELD(confidence_score_weight)
         G6D_FIELD(confidence_ambiguous_weight) G6D_FIELD(confidence_on_surface_weight) G6D_FIELD(confidence_free_space_weight)
         G6D_FIELD(confidence_contour_weight) G6D_FIELD(confidence_region_iou_weight) G6D_FIELD(confidence_colour_weight) G6D_FIELD(confidence_in_image_weight)
-        G6D_FIELD(confidence_edge_weight) G6D_FIELD(confidence_runner_up_weight)
+        G6D_FIELD(confidence_edge_weight) G6D_FIELD(confidence_runner_up_weight) G6D_FIELD(confidence_free_band_weight)
         G6D_FIELD(min_confidence).Done();
   }
   {
