@@ -347,6 +347,7 @@ class DetectOptions(_Options):
     confidence_in_image_weight: float
     confidence_edge_weight: float
     confidence_runner_up_weight: float
+    confidence_free_band_weight: float
     min_confidence: float
 
 class ViewSamplingOptions(_Options):
@@ -445,9 +446,11 @@ class PoseResult:
     mask_iou: float
     on_surface: float
     free_space: float
+    free_space_band_px: float
     contour_support: float
     in_image: float
     edge_support: float
+    oriented_edge: float
     mask_refined_rounds: int
     stages: Dict[str, Any]
     bank: Optional[TemplateBank]
