@@ -102,6 +102,13 @@ TEST_F(BenchDatasetTest, BadTargetsFileAndContradictingFlagsAreErrors) {
                                                     "/caches --allow-border-masks --reject-border-masks");
   EXPECT_EQ(both.exit_code, 2);
   EXPECT_NE(both.output.find("contradict"), std::string::npos) << both.output;
+  // Detection's confidence takes 11 weights (an old list: the free band's weight 0) or 12.
+  for (const char* weights : {"1,2,3", "1,2,3,4,5,6,7,8,9,10,11,12,13"}) {
+    const test::CommandResult wrong = test::RunCommand(kBench + " --dataset " + *dir_ + "/tiny --caches " + *dir_ +
+                                                       "/caches --masks none --detect-confidence " + weights);
+    EXPECT_NE(wrong.exit_code, 0) << weights;
+    EXPECT_NE(wrong.output.find("--detect-confidence"), std::string::npos) << wrong.output;
+  }
 }
 
 // --identity unknown: both boxes are candidates for every instance; the summary says how
