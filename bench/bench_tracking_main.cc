@@ -5,7 +5,8 @@
 //    twice, by the Tracker (lib/track, the service's code) and from scratch (EstimatePose,
 //    the baseline), and the table gives per-frame ADD(-S) recall of both, the answers by
 //    mode, tracked-solve and per-frame times, re-detections, and the frames where a wrong
-//    pose (> 0.1 d) was published before and after --abrupt-frame.
+//    pose (> 0.1 d) was published before and after --abrupt-frame. --drop-frames leaves
+//    frames out as a busy service drops them (tracks then start from older poses).
 //  --perturb N: for every target instance, N TrackPose solves from the GT pose moved by a
 //    random rotation and translation; S_A and J of the tracked-correct and tracked-wrong
 //    poses, and what loss thresholds accept and refuse (the loss threshold is measured here).
@@ -84,7 +85,8 @@ constexpr double kCorrectD = 0.1;  // ADD(-S) < 0.1 d
 
 int RunSequence(const g6d::BopDataset& dataset, const std::string& dataset_dir, Objects* objects,
                 const g6d::SolverOptions& solver, const g6d::TrackerOptions& tracker_options, double fps,
-                int abrupt_frame, bool baseline, g6d::Executor* pool, std::FILE* records) {
+                int abrupt_frame, const std::vector<int>& drop_frames, bool baseline, g6d::Executor* pool,
+                std::FILE* records) {
   int instances = 0, tracked_correct = 0, baseline_correct = 0;
   std::map<g6d::AnswerMode, int> modes;
   int lost = 0, lost_by_appearance = 0, periodic = 0, wrong_before = 0, wrong_after = 0, instances_before = 0, instances_after = 0;
@@ -98,6 +100,8 @@ int RunSequence(const g6d::BopDataset& dataset, const std::string& dataset_dir, 
     g6d::Tracker tracker(tracker_options);
     std::map<int, int> wrong_run;  // gt_idx -> consecutive wrong frames
     for (const auto& [im_id, obj_ids] : images) {
+      // A frame a busy service drops: the tracker never sees it.
+      if (std::count(drop_frames.begin(), drop_frames.end(), im_id) > 0) continue;
       const g6d::Frame frame = LoadFrame(scene, im_id);
       const g6d::BopFrame& bop_frame = scene.Frame(im_id);
       std::vector<g6d::Instance> batch;
@@ -122,7 +126,7 @@ int RunSequence(const g6d::BopDataset& dataset, const std::string& dataset_dir, 
       for (size_t i = 0; i < batch.size(); ++i) {
         answers[i] = g6d::SolveWithPlan(frame, batch[i], *lookup(batch[i].object_id), solver, tracker_options, plans[i], pool);
       }
-      tracker.Update(time_s, plans, &answers);
+      tracker.Update(time_s, plans, lookup, &answers);
       frame_tracking_ms.push_back(watch.ElapsedMs());
       // Background re-detections (the service runs them on a spare thread): solved here,
       // outside the frame's time, and applied before the next frame.
@@ -339,7 +343,7 @@ int main(int argc, char** argv) {
   int hypotheses = g6d::SolverOptions().num_hypotheses, threads = 2, abrupt_frame = -1, perturb = 0, every = 1;
   double fps = 30.0, max_rotation_deg = 40.0, max_translation_d = 0.3;
   bool no_baseline = false, no_velocity = false;
-  std::vector<int> adds_ids;
+  std::vector<int> adds_ids, drop_frames;
   g6d::TrackerOptions tracker;
   app.add_option("--dataset", dataset_dir, "BOP dataset folder (models/, test/, ...)")->required();
   app.add_option("--caches", caches_dir, "folder with <obj_XXXXXX>.g6dcache files")->required();
@@ -348,6 +352,9 @@ int main(int argc, char** argv) {
   app.add_option("--fps", fps, "frame rate: frame time = im_id / fps")->capture_default_str();
   app.add_option("--abrupt-frame", abrupt_frame, "im_id of an abrupt move: wrong answers are counted before and after it (-1 = none)");
   app.add_option("--adds-ids", adds_ids, "object ids scored with ADD-S besides models_info's symmetric ones")->delimiter(',');
+  app.add_option("--drop-frames", drop_frames,
+                 "im_ids the tracker never sees, as the frames a busy service drops (e.g. 1,2,3,4,46: the demo's real-time run)")
+      ->delimiter(',');
   app.add_flag("--no-baseline", no_baseline, "do not also solve every frame from scratch");
   app.add_option("--records", records_csv, "per-answer CSV");
   app.add_option("--perturb", perturb, "calibration: N TrackPose solves per target from the GT moved at random (0 = sequence mode)");
@@ -398,8 +405,8 @@ int main(int argc, char** argv) {
     }
     const int status = perturb > 0 ? RunPerturb(dataset, dataset_dir, &objects, solver, tracker, perturb, max_rotation_deg,
                                                 max_translation_d, every, &pool, records)
-                                   : RunSequence(dataset, dataset_dir, &objects, solver, tracker, fps, abrupt_frame, !no_baseline,
-                                                 &pool, records);
+                                   : RunSequence(dataset, dataset_dir, &objects, solver, tracker, fps, abrupt_frame, drop_frames,
+                                                 !no_baseline, &pool, records);
     if (records) std::fclose(records);
     return status;
   } catch (const std::exception& e) {

@@ -167,6 +167,8 @@ class Service {
   /// plans (and the tracks forgotten) if it throws.
   std::vector<TrackPlan> PlanFrame(const Job& job, double time_s,
                                    const std::vector<Instance>& instances);
+  /// The loaded banks by object id, for the tracker (nullptr for an id not loaded).
+  BankLookup LoadedBanks() const;
   void CountAnswer(const pose_estimate_t& estimate);
   /// Hands finished background re-detections to the tracker (before planning a frame).
   void ApplyBackgroundDetections();

@@ -47,14 +47,17 @@ std::optional<pose_estimate_t> Service::SolveInstance(const Job& job, size_t ind
   }
 }
 
-std::vector<TrackPlan> Service::PlanFrame(const Job& job, double time_s,
-                                          const std::vector<Instance>& instances) {
-  const BankLookup banks = [this](const std::string& object_id) -> const TemplateBank* {
+BankLookup Service::LoadedBanks() const {
+  return [this](const std::string& object_id) -> const TemplateBank* {
     const auto bank = frame_store_->banks.find(object_id);
     return bank == frame_store_->banks.end() ? nullptr : bank->second.get();
   };
+}
+
+std::vector<TrackPlan> Service::PlanFrame(const Job& job, double time_s,
+                                          const std::vector<Instance>& instances) {
   try {
-    return tracker_.Plan(time_s, instances, job.decoded.frame.camera, banks);
+    return tracker_.Plan(time_s, instances, job.decoded.frame.camera, LoadedBanks());
   } catch (const std::exception& e) {
     // Nothing in planning should throw for a frame that decoded; if it does, this frame
     // is detected from scratch rather than lost.
@@ -441,7 +444,7 @@ void Service::ProcessJob(const Job& job) {
       answers[k].result = PoseResult();
     }
     // An abandoned or failed instance's answer is unsolved: Update leaves its track to expire.
-    tracker_.Update(time_s, update_plans, &answers);
+    tracker_.Update(time_s, update_plans, LoadedBanks(), &answers);
     for (size_t u = 0; u < untracked.size(); ++u) {
       answers[untracked[u]].result = std::move(hidden[u]);
       answers[untracked[u]].track_id = -1;

@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "eval/metrics.h"
 #include "mesh/mesh.h"
+#include "bop_eval_scene.h"
 #include "synthetic_scene.h"
 #include "test_bank.h"
 
@@ -82,7 +83,7 @@ std::vector<TrackedAnswer> RunFrame(Tracker* tracker, double time_s, const Frame
     answers.push_back(SolveWithPlan(frame, instances[i], *banks(instances[i].object_id), SolverOptions(), tracker->options(),
                                     plans[i], executor));
   }
-  tracker->Update(time_s, plans, &answers);
+  tracker->Update(time_s, plans, banks, &answers);
   if (plans_out) *plans_out = plans;
   return answers;
 }
@@ -384,6 +385,123 @@ TEST(TrackerPredictionTest, ConstantVelocityExtrapolatesARigidMotion) {
   const Eigen::Isometry3d step = half * track.cam_from_object.inverse();
   EXPECT_NEAR(Eigen::AngleAxisd(step.linear()).angle(), 0.25, 1e-9);
   EXPECT_TRUE(step.translation().isApprox(Eigen::Vector3d(0.015, 0.0, -0.03)));
+}
+
+// A rotation by `deg` about `axis` through `point` (object frame).
+Eigen::Isometry3d TurnAbout(const Eigen::Vector3d& axis, const Eigen::Vector3d& point, double deg) {
+  Eigen::Isometry3d turn = Eigen::Isometry3d::Identity();
+  turn.linear() = Eigen::AngleAxisd(deg * M_PI / 180.0, axis.normalized()).toRotationMatrix();
+  turn.translation() = point - turn.linear() * point;
+  return turn;
+}
+
+// The turn of `pose` relative to `reference` about `axis` (object frame), degrees: the twist
+// of reference^-1 * pose.
+double TwistDeg(const Eigen::Isometry3d& reference, const Eigen::Isometry3d& pose, const Eigen::Vector3d& axis) {
+  const Eigen::Quaterniond delta(Eigen::Matrix3d(reference.linear().transpose() * pose.linear()));
+  double twist = 2.0 * std::atan2(delta.vec().dot(axis.normalized()), delta.w()) * 180.0 / M_PI;
+  if (twist > 180.0) twist -= 360.0;
+  if (twist < -180.0) twist += 360.0;
+  return twist;
+}
+
+MeshSymmetries CanShape() {
+  MeshSymmetries shape;
+  shape.revolution = true;
+  shape.axis = Eigen::Vector3d(0.0, 0.6, 0.8);
+  shape.point = Eigen::Vector3d(0.01, -0.02, 0.03);
+  return shape;
+}
+
+TEST(TrackerPredictionTest, ASurfaceOfRevolutionsTurnAboutItsAxisIsNotExtrapolated) {
+  const MeshSymmetries shape = CanShape();
+  Eigen::Isometry3d before = Eigen::Isometry3d::Identity();
+  before.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, -1, 2).normalized()).toRotationMatrix();
+  before.translation() = Eigen::Vector3d(0.05, 0.02, 0.7);
+  // A tilt of the camera (about the camera's x axis), a spin of 12 degrees about the
+  // can's axis, and a shift of the can's centre, in 1/30 s.
+  Eigen::Isometry3d tilt = Eigen::Isometry3d::Identity();
+  tilt.linear() = Eigen::AngleAxisd(2.0 * M_PI / 180.0, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  Eigen::Isometry3d after = tilt * before * TurnAbout(shape.axis, shape.point, 12.0);
+  after.translation() += Eigen::Vector3d(0.003, -0.001, 0.002);
+  const double dt = 1.0 / 30.0;
+
+  Track track;
+  track.cam_from_object = after;
+  track.time_s = 1.0;
+  track.has_velocity = true;
+  // Without a shape: the whole step, spin included, is the velocity.
+  TrackMotion(before, after, dt, nullptr, &track.velocity_m_s, &track.angular_rad_s);
+  EXPECT_TRUE((PredictPose(track, 1.0 + dt) * after.inverse()).isApprox(after * before.inverse(), 1e-9));
+  // With the can's shape: the spin is left out, the tilt and the centre's motion kept.
+  TrackMotion(before, after, dt, &shape, &track.velocity_m_s, &track.angular_rad_s);
+  const Eigen::Isometry3d predicted = PredictPose(track, 1.0 + dt);
+  EXPECT_NEAR(std::abs(TwistDeg(after, predicted, shape.axis)), 0.0, 1e-6);
+  const Eigen::Vector3d axis_after = after.linear() * shape.axis, axis_predicted = predicted.linear() * shape.axis;
+  const Eigen::Vector3d axis_before = before.linear() * shape.axis;
+  // The axis turns on as it did (the tilt), and the centre moves on by the same step (to
+  // the second order of the step: a tilt and a spin in one step do not commute).
+  EXPECT_NEAR(std::acos(std::min(1.0, axis_after.dot(axis_predicted))), std::acos(std::min(1.0, axis_before.dot(axis_after))), 1e-3);
+  const Eigen::Vector3d centre_step = after * shape.point - before * shape.point;
+  ASSERT_GT(centre_step.norm(), 0.02);
+  EXPECT_LT((predicted * shape.point - (after * shape.point + tilt.linear() * centre_step)).norm(), 1e-3);
+  EXPECT_THROW(TrackMotion(before, after, 0.0, &shape, &track.velocity_m_s, &track.angular_rad_s), Error);
+}
+
+TEST(TrackPoseTurnTest, KeepTurnAboutAxisDropsTheTwistAndKeepsTheRest) {
+  const MeshSymmetries shape = CanShape();
+  Eigen::Isometry3d start = Eigen::Isometry3d::Identity();
+  start.linear() = Eigen::AngleAxisd(1.1, Eigen::Vector3d(0, 1, 1).normalized()).toRotationMatrix();
+  start.translation() = Eigen::Vector3d(-0.03, 0.01, 0.8);
+  // A tilt of 5 degrees about an axis across the can's, then a spin of 30 about its own.
+  const Eigen::Vector3d across = shape.axis.cross(Eigen::Vector3d::UnitX()).normalized();
+  const Eigen::Isometry3d swung = start * TurnAbout(across, shape.point, 5.0);
+  const Eigen::Isometry3d pose = swung * TurnAbout(shape.axis, shape.point, 30.0);
+  const Eigen::Isometry3d kept = KeepTurnAboutAxis(shape, start, pose);
+  EXPECT_TRUE(kept.isApprox(swung, 1e-9));
+  EXPECT_NEAR(TwistDeg(start, kept, shape.axis), 0.0, 1e-6);
+  EXPECT_LT((kept * shape.point - pose * shape.point).norm(), 1e-12);  // the centre stays
+  // No revolution: the pose as it is.
+  MeshSymmetries box;
+  EXPECT_TRUE(KeepTurnAboutAxis(box, start, pose).isApprox(pose));
+}
+
+// An untextured can (a 64-sided closed cylinder): TrackPose from a start turned about its
+// axis, and moved off it, sets the position and the axis right and keeps the start's turn,
+// which neither its depth nor its silhouette can tell.
+TEST(TrackPoseTurnTest, AnUntexturedCanKeepsTheTurnOfItsStart) {
+  const Mesh can = test::MakeCylinder(0.04, 0.06, 64);
+  ThreadPool pool(2);
+  const TemplateBank bank = test::SharedTestBank("can64-default", can, "can", TemplateBuildOptions(), &pool);
+  ASSERT_TRUE(bank.geometric_symmetries.revolution) << bank.geometric_symmetries.Describe();
+  const Eigen::Vector3d axis = bank.geometric_symmetries.axis;
+  GlRenderer renderer(can);
+  Eigen::Isometry3d truth = Eigen::Isometry3d::Identity();
+  truth.linear() = Eigen::AngleAxisd(1.0, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  truth.translation() = Eigen::Vector3d(0.01, 0.0, 0.6);
+  test::SyntheticOptions options;
+  options.seed = 5;
+  const test::SyntheticView view = test::RenderSyntheticView(&renderer, can, kCamera, truth, options);
+  Frame frame;
+  frame.camera = kCamera;
+  frame.rgb = view.rgb;
+  frame.depth = view.depth;
+  const Instance instance{"can", view.mask};
+  for (const double turn_deg : {25.0, -60.0}) {
+    Eigen::Isometry3d start = truth * TurnAbout(axis, bank.geometric_symmetries.point, turn_deg);
+    start.linear() = Eigen::AngleAxisd(4.0 * M_PI / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix() * start.linear();
+    start.translation() += Eigen::Vector3d(0.006, -0.004, 0.005);
+    const PoseResult result = TrackPose(frame, instance, bank, SolverOptions(), TrackSolveOptions(), {start}, &pool);
+    ASSERT_TRUE(result.success) << result.message;
+    const Eigen::Vector3d centre = bank.geometric_symmetries.point;
+    EXPECT_LT((result.cam_from_object * centre - truth * centre).norm(), 0.002) << "turn " << turn_deg;
+    const double axis_error_deg =
+        std::acos(std::min(1.0, (result.cam_from_object.linear() * axis).dot(truth.linear() * axis))) * 180.0 / M_PI;
+    EXPECT_LT(axis_error_deg, 1.5) << "turn " << turn_deg;
+    EXPECT_NEAR(TwistDeg(start, result.cam_from_object, axis), 0.0, 0.5) << "turn " << turn_deg;
+    EXPECT_NEAR(TwistDeg(truth, result.cam_from_object, axis), turn_deg, 5.0) << "turn " << turn_deg;
+    EXPECT_LT(result.score, 0.1) << "turn " << turn_deg;  // the same surface: as good as the truth
+  }
 }
 
 TEST(TrackerOptionsTest, BadOptionsAreRefusedByName) {

@@ -1,5 +1,6 @@
 #include "solver/track_pose.h"
 
+#include <algorithm>
 #include <cmath>
 #include <exception>
 #include <sstream>
@@ -20,6 +21,19 @@ std::string TrackSolveOptions::Check() const {
   else if (!(appearance_search_deg >= 0.0 && appearance_search_deg <= 180.0)) out << "TrackSolveOptions.appearance_search_deg must be in [0, 180] (got " << appearance_search_deg << ")";
   else if (!(appearance_step_deg > 0.0)) out << "TrackSolveOptions.appearance_step_deg must be > 0 (got " << appearance_step_deg << ")";
   return out.str();
+}
+
+Eigen::Isometry3d KeepTurnAboutAxis(const MeshSymmetries& shape, const Eigen::Isometry3d& start,
+                                    const Eigen::Isometry3d& pose) {
+  if (!shape.revolution) return pose;
+  // pose = start * delta (object frame); delta = swing * twist, the twist about the axis.
+  const Eigen::Quaterniond delta(Eigen::Matrix3d(start.linear().transpose() * pose.linear()));
+  const Eigen::Vector3d axis = shape.axis.normalized();
+  const double twist = 2.0 * std::atan2(delta.vec().dot(axis), delta.w());
+  Eigen::Isometry3d turn = Eigen::Isometry3d::Identity();
+  turn.linear() = Eigen::AngleAxisd(twist, axis).toRotationMatrix();
+  turn.translation() = shape.point - turn.linear() * shape.point;
+  return pose * turn.inverse();
 }
 
 PoseResult TrackPose(const Frame& frame, const Instance& instance, const TemplateBank& bank,
@@ -97,8 +111,23 @@ PoseResult TrackPose(const Frame& frame, const Instance& instance, const Templat
     }
     stages.mhpo_ms = watch.ElapsedMs();
 
-    // A coloured surface of revolution: its turn about the axis, by appearance.
+    // A surface of revolution keeps the turn about its axis of the start it came from: ICP
+    // and MHPO see depth and silhouette, which do not hold that turn, and slid it by up to
+    // 30 degrees in a frame (bench/RESULTS.md, "A tracked can's turn"); the appearance search
+    // below is what may turn it.
     const MeshSymmetries& shape = bank.geometric_symmetries;
+    if (shape.revolution) {
+      const size_t from = std::min(starts.size() - 1, static_cast<size_t>(std::max(0, stages.answer_hypothesis)));
+      const Eigen::Isometry3d untwisted = KeepTurnAboutAxis(shape, starts[from], result.cam_from_object);
+      if (!untwisted.isApprox(result.cam_from_object)) {
+        RasterImage scratch;
+        result.cam_from_object = untwisted;
+        result.details = ScorePose(observation.refine_grid, bank.online_mesh, untwisted, observation.z_m, online_score,
+                                   &scratch);
+      }
+    }
+
+    // A coloured surface of revolution: its turn about the axis, by appearance.
     if (track_options.appearance_search_deg > 0.0 && shape.revolution && !bank.appearance.Empty() &&
         options.appearance_tiebreak) {
       watch.Restart();

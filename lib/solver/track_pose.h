@@ -42,6 +42,13 @@ struct TrackSolveOptions {
 /// neighbourhood is searched; with a coloured mesh, the appearance agreement of T_A, and a
 /// surface of revolution turned about its axis by it, see TrackSolveOptions). Never throws for bad data: bad input gives success = false,
 /// termination kBadInput. Starts fan out over `executor`.
+/// `pose` with the turn about `shape`'s revolution axis that it has relative to `start`
+/// taken out (`pose` itself when `shape` is no surface of revolution): the swing of
+/// start^-1 · pose is kept, its twist about the axis (through shape.point) dropped. The
+/// surface is the same at either pose.
+Eigen::Isometry3d KeepTurnAboutAxis(const MeshSymmetries& shape, const Eigen::Isometry3d& start,
+                                    const Eigen::Isometry3d& pose);
+
 PoseResult TrackPose(const Frame& frame, const Instance& instance, const TemplateBank& bank,
                      const SolverOptions& options, const TrackSolveOptions& track_options,
                      const std::vector<Eigen::Isometry3d>& starts, Executor* executor);

@@ -234,7 +234,26 @@ int Tracker::ForgetObject(const std::string& object_id) {
   return forgotten;
 }
 
-void Tracker::Update(double time_s, const std::vector<TrackPlan>& plans, std::vector<TrackedAnswer>* answers) {
+void TrackMotion(const Eigen::Isometry3d& before, const Eigen::Isometry3d& after, double dt_s,
+                 const MeshSymmetries* shape, Eigen::Vector3d* velocity_m_s, Eigen::Vector3d* angular_rad_s) {
+  if (!(dt_s > 0.0)) G6D_THROW("TrackMotion: dt must be > 0 (got " << dt_s << ")");
+  Eigen::Isometry3d step = after * before.inverse();
+  const Eigen::AngleAxisd turn(step.linear());
+  Eigen::Vector3d rotation = turn.axis() * turn.angle();
+  if (shape != nullptr && shape->revolution) {
+    const Eigen::Vector3d axis = (after.linear() * shape->axis).normalized();
+    rotation -= rotation.dot(axis) * axis;
+    step.linear() = rotation.norm() > 0.0 ? Eigen::AngleAxisd(rotation.norm(), rotation.normalized()).toRotationMatrix()
+                                          : Eigen::Matrix3d::Identity();
+    // The centre on the axis moves from before's to after's position.
+    step.translation() = after * shape->point - step.linear() * (before * shape->point);
+  }
+  *angular_rad_s = rotation / dt_s;
+  *velocity_m_s = step.translation() / dt_s;
+}
+
+void Tracker::Update(double time_s, const std::vector<TrackPlan>& plans, const BankLookup& banks,
+                     std::vector<TrackedAnswer>* answers) {
   if (answers->size() != plans.size()) G6D_THROW("Tracker::Update: " << answers->size() << " answers for " << plans.size() << " plans");
   for (size_t i = 0; i < plans.size(); ++i) {
     TrackedAnswer& answer = (*answers)[i];
@@ -263,10 +282,9 @@ void Tracker::Update(double time_s, const std::vector<TrackPlan>& plans, std::ve
     // Velocity only across a continuous motion: a re-detection may have jumped.
     track.has_velocity = answer.from_track && dt > 0.0;
     if (track.has_velocity) {
-      const Eigen::Isometry3d step = answer.result.cam_from_object * track.cam_from_object.inverse();
-      const Eigen::AngleAxisd turn(step.linear());
-      track.angular_rad_s = turn.axis() * (turn.angle() / dt);
-      track.velocity_m_s = step.translation() / dt;
+      const TemplateBank* bank = banks ? banks(track.object_id) : nullptr;
+      TrackMotion(track.cam_from_object, answer.result.cam_from_object, dt,
+                  bank != nullptr ? &bank->geometric_symmetries : nullptr, &track.velocity_m_s, &track.angular_rad_s);
     } else {
       track.angular_rad_s.setZero();
       track.velocity_m_s.setZero();

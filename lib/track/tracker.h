@@ -176,8 +176,11 @@ class Tracker {
 
   /// Records the answers of the frame planned at `time_s` (one per plan, same order):
   /// continues or starts tracks (successful answers only), sets each answer's track_id and
-  /// frames_since_detection. A failed answer leaves its track to expire.
-  void Update(double time_s, const std::vector<TrackPlan>& plans, std::vector<TrackedAnswer>* answers);
+  /// frames_since_detection. A failed answer leaves its track to expire. A track's velocity
+  /// (TrackMotion) reads the object's shape from `banks`: the turn of a surface of
+  /// revolution about its axis is no motion the depth saw, and is not extrapolated.
+  void Update(double time_s, const std::vector<TrackPlan>& plans, const BankLookup& banks,
+              std::vector<TrackedAnswer>* answers);
 
   /// A background re-detection of track `track_id` on a frame where the track's answer was
   /// `tracked`: `detection` (EstimatePose's result on that frame). When the detection is
@@ -209,5 +212,16 @@ bool DetectionIsBetter(const TrackerOptions& options, const PoseResult& tracked,
 /// The constant-velocity prediction of a track's pose at `time_s` (its last pose when it
 /// has no velocity).
 Eigen::Isometry3d PredictPose(const Track& track, double time_s);
+
+/// The velocity of a track whose answer moved from `before` to `after` in `dt_s` seconds
+/// (> 0): Track::velocity_m_s and Track::angular_rad_s (camera frame), so that PredictPose
+/// reproduces the step. With `shape` a surface of revolution, the turn about its axis is
+/// left out (the centre on the axis still moves as it did): depth and silhouette do not see
+/// that turn, so a step along it is the solve's correction of an unobserved degree of
+/// freedom (a detection's turn set right by the appearance search), and extrapolated it
+/// grows frame after frame (the demo's can spun off its print after its jump; bench/RESULTS.md,
+/// "A tracked can's turn"). `shape` may be nullptr (no symmetry known).
+void TrackMotion(const Eigen::Isometry3d& before, const Eigen::Isometry3d& after, double dt_s,
+                 const MeshSymmetries* shape, Eigen::Vector3d* velocity_m_s, Eigen::Vector3d* angular_rad_s);
 
 }  // namespace g6d
