@@ -250,6 +250,22 @@ int main(int argc, char** argv) {
   app.add_option("--degrade-cut-fraction", degrade.cut_fraction,
                  "cut: fraction of the mask's pixels removed, in [0, 1)")
       ->capture_default_str();
+  // Depth as a real sensor gives it, where a dataset has only rendered depth (issue 31).
+  std::string depth_folder = "depth", depth_sensor = "none";
+  g6d::DepthSensorModel sensor;
+  app.add_option("--depth-folder", depth_folder,
+                 "the scenes' depth folder the solver reads (depth_gt: synth_dev's exact depth, e.g. under "
+                 "--depth-sensor to compare the simulation with the set's own sensor)")
+      ->capture_default_str();
+  app.add_option("--depth-sensor", depth_sensor,
+                 "none: the depth as it is; structured-light: through a simulated Kinect v1 / Xtion "
+                 "(eval/depth_sensor.h: projector shadows, grazing angles, flying pixels at steps, noise "
+                 "and disparity steps)")
+      ->check(CLI::IsMember({"none", "structured-light"}))
+      ->capture_default_str();
+  app.add_option("--depth-sensor-seed", sensor.seed, "seed of the simulated sensor's noise")->capture_default_str();
+  app.add_option("--depth-sensor-noise", sensor.noise_at_1m_m, "the simulated sensor's depth noise at 1 m, metres (grows with z^2)")
+      ->capture_default_str();
   // The unknown-identity solve (issue 22, item 5).
   std::string identity = "given", extra_candidates_dir;
   bool no_prescreen = false;
@@ -480,6 +496,8 @@ int main(int argc, char** argv) {
     else G6D_THROW("--pnp-solver must be depth, p3p or opencv (got '" << pnp_solver << "')");
     options.pnp.local_optimization = !no_lo;
     if (every < 1) G6D_THROW("--every must be >= 1 (got " << every << ")");
+    const bool simulate_sensor = g6d::ParseDepthSensorName(depth_sensor);
+    if (const std::string bad = sensor.Check(); !bad.empty()) G6D_THROW("bad --depth-sensor-* options: " << bad);
     if (masks == "none") {
       if (degrade_mode != "none" || identity != "given" || score_gt || oracle) {
         G6D_THROW("--masks none takes none of --degrade-masks, --identity, --score-gt or --oracle");
@@ -494,6 +512,9 @@ int main(int argc, char** argv) {
       detect_args.diagnose = detect_diagnose;
       detect_args.absent_requests = absent_requests;
       detect_args.records_csv = records_csv;
+      detect_args.depth_folder = depth_folder;
+      detect_args.simulate_sensor = simulate_sensor;
+      detect_args.sensor = sensor;
       detect_args.threads = threads;
       detect_args.every = every;
       detect_args.limit = limit;
@@ -602,9 +623,10 @@ int main(int argc, char** argv) {
       g6d::Frame frame;
       frame.camera = bop_frame.camera;
       frame.rgb = g6d::LoadBopRgb(scene, target.im_id);
-      frame.depth = g6d::LoadBopDepth(scene, target.im_id);
       frame.camera.width = frame.rgb.cols;
       frame.camera.height = frame.rgb.rows;
+      frame.depth = g6d::bench::BenchDepth(scene, target.scene_id, target.im_id, frame.camera, frame.rgb, depth_folder,
+                                           simulate_sensor, sensor);
       if (frame_pass && frame_pass_image != std::make_pair(target.scene_id, target.im_id)) {
         frame_pass_image = {target.scene_id, target.im_id};
         frame_answers.clear();

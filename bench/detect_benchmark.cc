@@ -20,6 +20,7 @@
 #include "eval/bop.h"
 #include "eval/bop_csv.h"
 #include "eval/bop_eval.h"
+#include "eval/mask_degrade.h"
 #include "eval/metrics.h"
 #include "solver/proposals.h"
 
@@ -49,6 +50,13 @@ double MeanOf(const std::vector<double>& values) {
 }
 
 }  // namespace
+
+cv::Mat BenchDepth(const BopScene& scene, int scene_id, int im_id, const Camera& camera, const cv::Mat& rgb,
+                   const std::string& folder, bool simulate_sensor, const DepthSensorModel& sensor) {
+  cv::Mat depth = LoadBopDepth(scene, im_id, folder);
+  if (!simulate_sensor) return depth;
+  return SimulateDepthSensor(depth, rgb, camera, sensor, MaskInstanceKey(scene_id, im_id, -1));
+}
 
 int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
   BopDataset dataset = LoadBopDataset(args.dataset_dir);
@@ -100,9 +108,9 @@ int RunDetectBenchmark(const DetectBenchmarkArgs& args) {
     Frame frame;
     frame.camera = bop_frame.camera;
     frame.rgb = LoadBopRgb(scene, im_id);
-    frame.depth = LoadBopDepth(scene, im_id);
     frame.camera.width = frame.rgb.cols;
     frame.camera.height = frame.rgb.rows;
+    frame.depth = BenchDepth(scene, scene_id, im_id, frame.camera, frame.rgb, args.depth_folder, args.simulate_sensor, args.sensor);
     std::vector<DetectRequest> requests;
     std::vector<int> obj_of_request;
     std::vector<BopTarget> image_targets = targets_of.at(images[i]);

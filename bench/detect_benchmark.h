@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "eval/bop.h"
+#include "eval/depth_sensor.h"
 #include "solver/detect.h"
 #include "solver/pipeline.h"
 
@@ -37,9 +39,21 @@ struct DetectBenchmarkArgs {
   /// Per answer: the features the confidence is fitted on (S_A, the frame check, the
   /// region's terms), the confidence, and whether it is right ("" = none).
   std::string records_csv;
+  /// The depth the solver reads (BenchDepth): the scene's folder of that name, and a
+  /// simulated sensor over it when `simulate_sensor`.
+  std::string depth_folder = "depth";
+  bool simulate_sensor = false;
+  DepthSensorModel sensor;
   SolverOptions solver;
   DetectOptions detect;
 };
+
+/// The depth of image `im_id` of `scene` (scene id `scene_id`) as the benchmarks give it to
+/// the solver: `folder` (depth/ or depth_gt/), through SimulateDepthSensor when
+/// `simulate_sensor` (with the image's colours `rgb`; keyed by scene and image, so every run
+/// and both benchmarks' modes see the same noise).
+cv::Mat BenchDepth(const BopScene& scene, int scene_id, int im_id, const Camera& camera, const cv::Mat& rgb,
+                   const std::string& folder, bool simulate_sensor, const DepthSensorModel& sensor);
 
 /// Runs the benchmark, prints per-image lines to stderr and the tables to stdout. Returns
 /// the process exit code; throws g6d::Error for bad arguments or data.

@@ -1,3 +1,5 @@
+// Degradations for the benchmark: masks as a segmenter gives them (mask_degrade.h) and depth
+// as a structured-light sensor gives it (depth_sensor.h).
 #include "eval/mask_degrade.h"
 
 #include <gmock/gmock.h>
@@ -9,6 +11,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "eval/depth_sensor.h"
 
 namespace g6d {
 namespace {
@@ -389,6 +392,154 @@ TEST(MaskIou, OfKnownOverlaps) {
   EXPECT_DOUBLE_EQ(MaskIou(empty, empty), 1.0);
   EXPECT_DOUBLE_EQ(MaskIou(a, empty), 0.0);
   EXPECT_THROW(MaskIou(a, cv::Mat::zeros(5, 5, CV_8U)), Error);
+}
+
+// The simulated sensor's scenes: 640 x 480, fx = fy = 572.4.
+const Camera kSensorCamera{572.4, 572.4, 320.0, 240.0, 640, 480};
+
+// A model with one effect on: `keep` names it (the others off).
+DepthSensorModel OnlySensorEffect(const std::string& keep) {
+  DepthSensorModel model;
+  if (keep != "noise") model.noise_at_1m_m = 0.0;
+  if (keep != "grazing") model.max_incidence_deg = 90.0;
+  if (keep != "edges") model.edge_drop = 0.0;
+  if (keep != "dropout") model.dropout = 0.0;
+  return model;
+}
+
+// A plane at `z_m` facing the camera, with a box `box_z_m` closer in `box` (0 = none).
+cv::Mat PlaneDepth(float z_m, const cv::Rect& box = cv::Rect(), float box_z_m = 0.0f) {
+  cv::Mat depth(kSensorCamera.height, kSensorCamera.width, CV_32F, cv::Scalar(z_m));
+  if (box.area() > 0) depth(box).setTo(box_z_m);
+  return depth;
+}
+
+TEST(SimulateDepthSensor, TheProjectorShadowsABandLeftOfACloserBox) {
+  const cv::Rect box(300, 200, 60, 80);
+  const cv::Mat depth = PlaneDepth(1.0f, box, 0.8f);
+  const DepthSensorModel model = OnlySensorEffect("shadows");
+  const cv::Mat out = SimulateDepthSensor(depth, cv::Mat(), kSensorCamera, model, 1);
+  // The band: fx * baseline * (1/0.8 - 1/1.0) = 10.7 px of the plane left of the box.
+  const double band_px = kSensorCamera.fx * model.baseline_m * (1.0 / 0.8 - 1.0 / 1.0);
+  for (int v : {210, 240, 270}) {
+    int left = 0, right = 0;
+    for (int u = 270; u < box.x; ++u) left += out.at<float>(v, u) == 0.0f;
+    for (int u = box.x + box.width; u < box.x + box.width + 30; ++u) right += out.at<float>(v, u) == 0.0f;
+    EXPECT_NEAR(left, band_px, 1.0) << "row " << v;
+    EXPECT_EQ(right, 0) << "row " << v;
+    EXPECT_GT(out.at<float>(v, box.x + 30), 0.0f);  // the box itself is lit
+  }
+  // Above and below the box nothing is shadowed.
+  EXPECT_EQ(cv::countNonZero(out(cv::Rect(0, 0, 640, 190)) == 0.0f), 0);
+}
+
+TEST(SimulateDepthSensor, NoiseGrowsWithTheSquareOfDepthOnDisparitySteps) {
+  const DepthSensorModel model = OnlySensorEffect("noise");
+  for (const float z : {1.0f, 2.0f}) {
+    const cv::Mat out = SimulateDepthSensor(PlaneDepth(z), cv::Mat(), kSensorCamera, model, 3);
+    double sum = 0.0, sum2 = 0.0;
+    int n = 0;
+    bool on_steps = true;
+    const double focal_baseline = kSensorCamera.fx * model.baseline_m;
+    for (int v = 10; v < 470; v += 3) {
+      for (int u = 10; u < 630; u += 3) {
+        const double measured = out.at<float>(v, u);
+        ASSERT_GT(measured, 0.0);
+        sum += measured - z;
+        sum2 += (measured - z) * (measured - z);
+        ++n;
+        const double steps = focal_baseline / measured / model.disparity_step_px;
+        on_steps = on_steps && std::abs(steps - std::round(steps)) < 0.02;
+      }
+    }
+    const double sigma = std::sqrt(sum2 / n - (sum / n) * (sum / n));
+    // sigma_z = 1.5 mm * z^2, widened a little by the disparity steps (2.6 mm at 1 m).
+    EXPECT_NEAR(sigma, model.noise_at_1m_m * z * z, 0.25 * model.noise_at_1m_m * z * z) << "z " << z;
+    EXPECT_NEAR(sum / n, 0.0, 0.2 * model.noise_at_1m_m * z * z) << "z " << z;
+    EXPECT_TRUE(on_steps) << "z " << z;
+  }
+}
+
+TEST(SimulateDepthSensor, AGrazingSurfaceHasNoDepth) {
+  const DepthSensorModel model = OnlySensorEffect("grazing");
+  for (const double tilt_deg : {45.0, 82.0}) {
+    // A plane through (0, 0, 1 m) turned about the y axis: n . X = n_z.
+    const double t = tilt_deg * M_PI / 180.0;
+    cv::Mat depth(kSensorCamera.height, kSensorCamera.width, CV_32F);
+    for (int v = 0; v < depth.rows; ++v) {
+      for (int u = 0; u < depth.cols; ++u) {
+        const double x = (u - kSensorCamera.cx) / kSensorCamera.fx;
+        const double along = std::sin(t) * x + std::cos(t);
+        depth.at<float>(v, u) = along > 0.05 ? static_cast<float>(std::cos(t) / along) : 0.0f;
+      }
+    }
+    const cv::Mat out = SimulateDepthSensor(depth, cv::Mat(), kSensorCamera, model, 1);
+    const cv::Mat centre = out(cv::Rect(300, 200, 40, 80));
+    const double kept = static_cast<double>(cv::countNonZero(centre > 0.0f)) / centre.total();
+    if (tilt_deg < 60.0) EXPECT_EQ(kept, 1.0);
+    else EXPECT_EQ(kept, 0.0);
+  }
+}
+
+TEST(SimulateDepthSensor, DarkAndShiningSurfacesLoseDepthInBlobs) {
+  const DepthSensorModel model = OnlySensorEffect("none");
+  for (const int grey : {20, 128, 240}) {
+    const cv::Mat rgb(kSensorCamera.height, kSensorCamera.width, CV_8UC3, cv::Scalar(grey, grey, grey));
+    const cv::Mat out = SimulateDepthSensor(PlaneDepth(1.0f), rgb, kSensorCamera, model, 5);
+    const cv::Mat lost = out == 0.0f;
+    const double rate = static_cast<double>(cv::countNonZero(lost)) / lost.total();
+    const double expected = grey < model.dark_grey ? model.dark_drop : grey >= model.bright_grey ? model.bright_drop : 0.0;
+    EXPECT_NEAR(rate, expected, 0.02) << "grey " << grey;
+    if (expected == 0.0) continue;
+    // Blobs, not speckle: a lost pixel's right neighbour is lost far more often than the rate.
+    int pairs = 0, both = 0;
+    for (int v = 0; v < lost.rows; ++v) {
+      for (int u = 0; u + 1 < lost.cols; ++u) {
+        if (!lost.at<uint8_t>(v, u)) continue;
+        ++pairs;
+        both += lost.at<uint8_t>(v, u + 1) != 0;
+      }
+    }
+    EXPECT_GT(static_cast<double>(both) / pairs, expected + 0.3) << "grey " << grey;
+  }
+}
+
+TEST(SimulateDepthSensor, IsRepeatableAndDiffersByFrame) {
+  const cv::Mat depth = PlaneDepth(1.2f, cv::Rect(200, 150, 100, 100), 0.9f);
+  const cv::Mat rgb(kSensorCamera.height, kSensorCamera.width, CV_8UC3, cv::Scalar(30, 30, 30));
+  const DepthSensorModel model;
+  const cv::Mat a = SimulateDepthSensor(depth, rgb, kSensorCamera, model, MaskInstanceKey(2, 8, -1));
+  const cv::Mat b = SimulateDepthSensor(depth, rgb, kSensorCamera, model, MaskInstanceKey(2, 8, -1));
+  const cv::Mat c = SimulateDepthSensor(depth, rgb, kSensorCamera, model, MaskInstanceKey(2, 9, -1));
+  EXPECT_EQ(cv::countNonZero(a != b), 0);
+  EXPECT_GT(cv::countNonZero(a != c), 1000);
+  // Every default effect together leaves most of the plane and the box measured.
+  const double kept = static_cast<double>(cv::countNonZero(a > 0.0f)) / a.total();
+  EXPECT_GT(kept, 0.6);
+  EXPECT_LT(kept, 0.8);  // the dark surface loses 30%
+}
+
+TEST(SimulateDepthSensor, BadInputIsRefusedByName) {
+  const DepthSensorModel model;
+  EXPECT_THAT([&] { SimulateDepthSensor(cv::Mat::zeros(480, 640, CV_16U), cv::Mat(), kSensorCamera, model, 1); },
+              testing::ThrowsMessage<Error>(testing::HasSubstr("CV_32F")));
+  EXPECT_THAT([&] { SimulateDepthSensor(cv::Mat::zeros(240, 320, CV_32F), cv::Mat(), kSensorCamera, model, 1); },
+              testing::ThrowsMessage<Error>(testing::HasSubstr("640x480")));
+  EXPECT_THAT([&] { SimulateDepthSensor(PlaneDepth(1.0f), cv::Mat::zeros(480, 640, CV_8U), kSensorCamera, model, 1); },
+              testing::ThrowsMessage<Error>(testing::HasSubstr("colour image")));
+  DepthSensorModel bad;
+  bad.edge_drop = 1.5;
+  EXPECT_THAT([&] { SimulateDepthSensor(PlaneDepth(1.0f), cv::Mat(), kSensorCamera, bad, 1); },
+              testing::ThrowsMessage<Error>(testing::HasSubstr("edge_drop")));
+  bad = DepthSensorModel();
+  bad.baseline_m = 0.0;
+  EXPECT_NE(bad.Check().find("baseline_m"), std::string::npos);
+  EXPECT_EQ(DepthSensorModel().Check(), "");
+  EXPECT_FALSE(ParseDepthSensorName("none"));
+  EXPECT_TRUE(ParseDepthSensorName("structured-light"));
+  EXPECT_THAT([] { ParseDepthSensorName("kinect"); },
+              testing::ThrowsMessage<Error>(testing::AllOf(testing::HasSubstr("'kinect'"),
+                                                           testing::HasSubstr("none, structured-light"))));
 }
 
 }  // namespace

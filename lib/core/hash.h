@@ -21,6 +21,15 @@ inline uint64_t Fnv1a64(const void* data, size_t size, uint64_t hash = kFnvOffse
   return hash;
 }
 
+/// SplitMix64's finalizer: spreads the bits of a seed or key, so that neighbouring keys
+/// (consecutive instance or frame ids) start unrelated random streams.
+inline uint64_t SplitMix64(uint64_t value) {
+  value += 0x9e3779b97f4a7c15ULL;
+  value = (value ^ (value >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  value = (value ^ (value >> 27)) * 0x94d049bb133111ebULL;
+  return value ^ (value >> 31);
+}
+
 /// Hash of a whole file's bytes; throws g6d::Error if it cannot be read.
 uint64_t HashFile(const std::string& path);
 

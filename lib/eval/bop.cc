@@ -590,9 +590,9 @@ cv::Mat LoadBopRgb(const BopScene& scene, int im_id) {
   return rgb;
 }
 
-cv::Mat LoadBopDepth(const BopScene& scene, int im_id) {
+cv::Mat LoadBopDepth(const BopScene& scene, int im_id, const std::string& folder) {
   const BopFrame& frame = scene.Frame(im_id);
-  const fs::path path = fs::path(scene.directory) / "depth" / (SixDigits(im_id) + ".png");
+  const fs::path path = fs::path(scene.directory) / folder / (SixDigits(im_id) + ".png");
   const cv::Mat raw = ReadImage(path, cv::IMREAD_UNCHANGED);
   if (raw.type() != CV_16UC1) {
     G6D_THROW("depth image " << path.string() << ": expected 16-bit single channel, got "

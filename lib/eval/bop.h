@@ -206,9 +206,11 @@ std::vector<BopFrame> ParseBopSceneFrames(const std::string& camera_json_text,
 cv::Mat LoadBopRgb(const BopScene& scene, int im_id);
 
 /// depth/<im_id:06d>.png (16-bit) as CV_32F metres: value * depth_scale / 1000 with the
-/// frame's depth_scale; 0 stays 0 (no measurement). Throws g6d::Error naming the path when
-/// it is missing, unreadable or not 16-bit single channel, or im_id is not in the scene.
-cv::Mat LoadBopDepth(const BopScene& scene, int im_id);
+/// frame's depth_scale; 0 stays 0 (no measurement). `folder` names another depth folder of
+/// the scene in the same units (synth_dev's exact `depth_gt`). Throws g6d::Error naming the
+/// path when it is missing, unreadable or not 16-bit single channel, or im_id is not in the
+/// scene.
+cv::Mat LoadBopDepth(const BopScene& scene, int im_id, const std::string& folder = "depth");
 
 /// mask_visib/<im_id:06d>_<gt_idx:06d>.png as CV_8U (0 or 255 in BOP data). Throws
 /// g6d::Error naming the path when missing, unreadable or not single channel 8-bit.

@@ -26,14 +26,9 @@ constexpr std::pair<MaskDegradation, const char*> kModeNames[] = {
 constexpr int kJitterCellFactor = 4;
 constexpr int kMinJitterCellPx = 4;
 
-// SplitMix64's finalizer: spreads the bits of seed and key so that neighbouring keys
+// Spreads the bits of seed and key (SplitMix64, core/hash.h) so that neighbouring keys
 // (consecutive gt_idx) start unrelated generator streams.
-uint64_t Mix(uint64_t value) {
-  value += 0x9e3779b97f4a7c15ULL;
-  value = (value ^ (value >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  value = (value ^ (value >> 27)) * 0x94d049bb133111ebULL;
-  return value ^ (value >> 31);
-}
+uint64_t Mix(uint64_t value) { return SplitMix64(value); }
 
 // Uniform in [0, 1) from the generator's raw 64 bits. std::uniform_real_distribution is
 // implementation-defined; this is the same with every standard library.
