@@ -264,6 +264,10 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"none", "structured-light"}))
       ->capture_default_str();
   app.add_option("--depth-sensor-seed", sensor.seed, "seed of the simulated sensor's noise")->capture_default_str();
+  std::string sensor_off;
+  app.add_option("--depth-sensor-off", sensor_off,
+                 "the simulated sensor's effects switched off, comma separated: shadows, grazing, edges, noise, dark, "
+                 "bright, speckle (ablations; noise off for a set whose depth is noisy already)");
   app.add_option("--depth-sensor-noise", sensor.noise_at_1m_m, "the simulated sensor's depth noise at 1 m, metres (grows with z^2)")
       ->capture_default_str();
   // The unknown-identity solve (issue 22, item 5).
@@ -384,6 +388,9 @@ int main(int argc, char** argv) {
   app.add_option("--detect-colour-weight", detect_options.colour_weight,
                  "--masks none: weight of the colour agreement in the ranking of candidate regions")
       ->capture_default_str();
+  app.add_option("--detect-bridge-holes", detect_options.bridge_holes_px,
+                 "--masks none: depth holes at most this many pixels across are bridged for the segmentation (0 = off)")
+      ->capture_default_str();
   app.add_option("--detect-max-union", detect_options.max_union_segments,
                  "--masks none: neighbouring depth segments joined into one candidate region, at most")
       ->capture_default_str();
@@ -497,6 +504,7 @@ int main(int argc, char** argv) {
     options.pnp.local_optimization = !no_lo;
     if (every < 1) G6D_THROW("--every must be >= 1 (got " << every << ")");
     const bool simulate_sensor = g6d::ParseDepthSensorName(depth_sensor);
+    sensor = g6d::WithoutSensorEffects(sensor, sensor_off);
     if (const std::string bad = sensor.Check(); !bad.empty()) G6D_THROW("bad --depth-sensor-* options: " << bad);
     if (masks == "none") {
       if (degrade_mode != "none" || identity != "given" || score_gt || oracle) {

@@ -535,6 +535,22 @@ TEST(SimulateDepthSensor, BadInputIsRefusedByName) {
   bad.baseline_m = 0.0;
   EXPECT_NE(bad.Check().find("baseline_m"), std::string::npos);
   EXPECT_EQ(DepthSensorModel().Check(), "");
+  const DepthSensorModel quiet = WithoutSensorEffects(model, "shadows,grazing,edges,noise,dark,bright,speckle");
+  EXPECT_FALSE(quiet.shadows);
+  EXPECT_FALSE(quiet.edges);
+  EXPECT_EQ(quiet.noise_at_1m_m, 0.0);
+  EXPECT_EQ(quiet.dark_drop + quiet.bright_drop + quiet.dropout, 0.0);
+  const cv::Mat box = PlaneDepth(1.0f, cv::Rect(300, 200, 60, 80), 0.8f);
+  // All off: every pixel measured, moved by at most half a disparity step (1.5 mm at 1 m).
+  const cv::Mat quiet_box = SimulateDepthSensor(box, cv::Mat(), kSensorCamera, quiet, 1);
+  EXPECT_EQ(cv::countNonZero(quiet_box > 0.0f), static_cast<int>(box.total()));
+  double largest = 0.0;
+  for (int v = 0; v < box.rows; ++v) {
+    for (int u = 0; u < box.cols; ++u) largest = std::max(largest, std::abs(double(quiet_box.at<float>(v, u)) - box.at<float>(v, u)));
+  }
+  EXPECT_LT(largest, 0.5 * model.disparity_step_px / (kSensorCamera.fx * model.baseline_m) + 1e-6);
+  EXPECT_THAT([&] { WithoutSensorEffects(model, "noise,blur"); },
+              testing::ThrowsMessage<Error>(testing::HasSubstr("'blur'")));
   EXPECT_FALSE(ParseDepthSensorName("none"));
   EXPECT_TRUE(ParseDepthSensorName("structured-light"));
   EXPECT_THAT([] { ParseDepthSensorName("kinect"); },

@@ -1,5 +1,5 @@
 // Depth segments: surfaces split where the depth jumps, a steep surface kept whole, speckle
-// left out, and the options' checks.
+// left out, a sensor's holes bridged, and the options' checks.
 #include "solver/segments.h"
 
 #include <cmath>
@@ -92,6 +92,37 @@ TEST(SegmentByDepthAndCreases, TouchingFacesComeApartAndKeepEveryPixel) {
   // A ridge stays whole.
   EXPECT_EQ(SegmentByDepthAndCreases(kCamera, Fold(1.0, false), Everything(), SegmentOptions(), nullptr).segments.size(),
             1u);
+}
+
+// A sensor's hole (a dark or shining blob, 6 px across) cuts a surface in two; bridged, it is
+// one segment again. A depthless band between two objects at different depths stays a gap.
+TEST(BridgeDepthHoles, AHoleInOneSurfaceIsBridgedAStepBetweenTwoIsNot) {
+  cv::Mat depth = Filled(0.80f);
+  for (int v = 0; v < kHeight; ++v) {  // a slanted surface: 1 mm per column
+    for (int u = 0; u < kWidth; ++u) depth.at<float>(v, u) = 0.80f + 0.001f * u;
+  }
+  depth(cv::Rect(97, 0, 6, kHeight)).setTo(0.0f);  // a hole across the whole image
+  ASSERT_EQ(SegmentByDepth(kCamera, depth, Everything(), SegmentOptions()).segments.size(), 2u);
+  const cv::Mat bridged = BridgeDepthHoles(kCamera, depth, 8, SegmentOptions());
+  EXPECT_EQ(SegmentByDepth(kCamera, bridged, Everything(), SegmentOptions()).segments.size(), 1u);
+  EXPECT_NEAR(bridged.at<float>(40, 99), 0.80f + 0.001f * 99, 1e-5);  // interpolated along the row
+  EXPECT_EQ(cv::countNonZero(bridged != depth), 6 * kHeight);             // only the hole changed
+  // A hole wider than the bridge stays.
+  EXPECT_EQ(cv::countNonZero(BridgeDepthHoles(kCamera, depth, 5, SegmentOptions()) != depth), 0);
+  EXPECT_EQ(cv::countNonZero(BridgeDepthHoles(kCamera, depth, 0, SegmentOptions()) != depth), 0);
+
+  // Two objects 10 cm apart in depth with a shadow between them: no bridge.
+  cv::Mat step = Filled(0.80f);
+  step(cv::Rect(0, 0, 100, kHeight)).setTo(0.70f);
+  step(cv::Rect(100, 0, 4, kHeight)).setTo(0.0f);
+  const cv::Mat kept = BridgeDepthHoles(kCamera, step, 8, SegmentOptions());
+  EXPECT_EQ(cv::countNonZero(kept != step), 0);
+  EXPECT_EQ(SegmentByDepth(kCamera, kept, Everything(), SegmentOptions()).segments.size(), 2u);
+  // An island of holes inside a face is filled from its rows and its columns.
+  cv::Mat face = Filled(0.90f);
+  face(cv::Rect(50, 50, 5, 5)).setTo(0.0f);
+  EXPECT_EQ(cv::countNonZero(BridgeDepthHoles(kCamera, face, 8, SegmentOptions()) != Filled(0.90f)), 0);
+  EXPECT_THROW(BridgeDepthHoles(kCamera, cv::Mat::zeros(kHeight, kWidth, CV_16U), 8, SegmentOptions()), Error);
 }
 
 TEST(SegmentByDepth, OnlyTheRegionWithDepthIsSegmentedAndFragmentsAreLeftOut) {

@@ -49,6 +49,23 @@ std::string DepthSensorModel::Check() const {
   return out.str();
 }
 
+DepthSensorModel WithoutSensorEffects(DepthSensorModel model, const std::string& names) {
+  std::stringstream list(names);
+  std::string name;
+  while (std::getline(list, name, ',')) {
+    if (name.empty()) continue;
+    if (name == "shadows") model.shadows = false;
+    else if (name == "grazing") model.max_incidence_deg = 90.0;
+    else if (name == "edges") model.edges = false;
+    else if (name == "noise") model.noise_at_1m_m = 0.0;
+    else if (name == "dark") model.dark_drop = 0.0;
+    else if (name == "bright") model.bright_drop = 0.0;
+    else if (name == "speckle") model.dropout = 0.0;
+    else G6D_THROW("unknown depth sensor effect '" << name << "' (valid: shadows, grazing, edges, noise, dark, bright, speckle)");
+  }
+  return model;
+}
+
 bool ParseDepthSensorName(const std::string& name) {
   if (name == "none") return false;
   if (name == "structured-light") return true;
@@ -74,7 +91,7 @@ cv::Mat SimulateDepthSensor(const cv::Mat& depth_m, const cv::Mat& rgb, const Ca
 
   // 1. Projector shadows, row by row from the right: a point whose projector column
   // u - d(u) is not left of every projector column to its right is behind a closer surface.
-  for (int v = 0; v < height; ++v) {
+  for (int v = 0; v < height && model.shadows; ++v) {
     double leftmost = std::numeric_limits<double>::infinity();
     for (int u = width - 1; u >= 0; --u) {
       const float z = z_at(u, v);
@@ -151,7 +168,7 @@ cv::Mat SimulateDepthSensor(const cv::Mat& depth_m, const cv::Mat& rgb, const Ca
     for (int u = 0; u < width; ++u) {
       float& z = out.at<float>(v, u);
       if (!(z > 0.0f)) continue;
-      if (edge.at<uint8_t>(v, u)) {
+      if (model.edges && edge.at<uint8_t>(v, u)) {
         if (Uniform01(&rng) < model.edge_drop) {
           z = 0.0f;
           continue;

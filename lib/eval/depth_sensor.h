@@ -39,10 +39,12 @@ namespace g6d {
 
 /// What SimulateDepthSensor() does (the defaults: an Asus Xtion / Kinect v1 at VGA).
 struct DepthSensorModel {
+  bool shadows = true;               ///< 1. off: the projector sees everything
   double baseline_m = 0.075;         ///< projector to camera along +x, metres (> 0)
   double disparity_step_px = 0.125;  ///< disparity quantisation, pixels (> 0)
   double noise_at_1m_m = 0.0015;     ///< depth noise sigma at 1 m, metres; grows with z² (>= 0)
   double max_incidence_deg = 78.0;   ///< no depth beyond this angle of surface to ray, (0, 90]
+  bool edges = true;                 ///< 3. off: pixels at depth steps keep their depth
   double edge_step_m = 0.02;         ///< a depth step at least this large, metres ...
   double edge_relative = 0.04;       ///< ... and this fraction of z, marks an edge pixel
   double edge_drop = 0.5;            ///< an edge pixel loses its depth with this probability, else flies
@@ -57,6 +59,11 @@ struct DepthSensorModel {
   /// Empty when valid, else a message naming the bad field and its value.
   std::string Check() const;
 };
+
+/// `model` with the effects named in `names` (comma separated: shadows, grazing, edges,
+/// noise, dark, bright, speckle) switched off, for ablations. Throws g6d::Error naming an
+/// unknown name and the valid ones.
+DepthSensorModel WithoutSensorEffects(DepthSensorModel model, const std::string& names);
 
 /// The names SimulateDepthSensor's callers accept: "none" (the depth as it is) and
 /// "structured-light" (DepthSensorModel's defaults). Throws g6d::Error naming `name` and

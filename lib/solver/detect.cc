@@ -573,6 +573,7 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
   // Per request, the pixels of the regions solved in earlier passes: a later pass does not
   // solve the same pixels again (a region nothing was taken from comes back unchanged).
   std::vector<std::vector<cv::Mat>> solved_regions(requests.size());
+  cv::Mat segment_depth;  // the frame's depth with its small holes bridged (bridge_holes_px)
   for (int pass = 0; pass <= options.explain_away_passes + options.found_object_passes; ++pass) {
     cv::Mat region = first_region.clone();
     cv::Mat island_region = first_region | out.raised;  // islands: with the thin parts lying on the support
@@ -595,7 +596,8 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
     DetectionReport::Pass& step = out.passes.emplace_back();
     {
       const ScopedTimer timer(&out.segment_ms);
-      step.segmentation = SegmentByDepthAndCreases(frame.camera, frame.depth, region, options.segments,
+      if (pass == 0) segment_depth = BridgeDepthHoles(frame.camera, frame.depth, options.bridge_holes_px, options.segments);
+      step.segmentation = SegmentByDepthAndCreases(frame.camera, segment_depth, region, options.segments,
                                                    pass == 0 ? &out.creases : nullptr);
     }
     const DepthSegmentation& segmentation = step.segmentation;

@@ -23,6 +23,7 @@ std::string DetectOptions::Check() const {
   else if (raised_outline_ring_px < 1) out << "DetectOptions.raised_outline_ring_px must be >= 1 (got " << raised_outline_ring_px << ")";
   else if (!(raised_outline_min_noise >= 0.0)) out << "DetectOptions.raised_outline_min_noise must be >= 0 (got " << raised_outline_min_noise << ")";
   else if (!(raised_min_height_m >= 0.0 && raised_min_height_m < 0.1)) out << "DetectOptions.raised_min_height_m must be in [0, 0.1) m (got " << raised_min_height_m << ")";
+  else if (bridge_holes_px < 0 || bridge_holes_px > 50) out << "DetectOptions.bridge_holes_px must be in [0, 50] (0 = off; got " << bridge_holes_px << ")";
   else if (island_open_px < -1 || island_open_px > 10) out << "DetectOptions.island_open_px must be in [-1, 10] (-1 = no islands; got " << island_open_px << ")";
   else if (!(island_split_core >= 0.0 && island_split_core <= 1.0)) out << "DetectOptions.island_split_core must be in [0, 1] (0 = no split; got " << island_split_core << ")";
   else if (!(island_split_window > 0.0 && island_split_window <= 1.0)) out << "DetectOptions.island_split_window must be in (0, 1] (got " << island_split_window << ")";

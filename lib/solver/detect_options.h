@@ -96,6 +96,12 @@ struct DetectOptions {
   /// in its cache) was answered on speckle islands (100% -> 60%); 0.15: bins 43.3%, the can
   /// unchanged; 0: bins 40.8% (bench/RESULTS.md, issue 31).
   double uncoloured_island_bonus = 0.15;
+  /// Holes in the depth at most this many pixels across are bridged for the segmentation
+  /// (BridgeDepthHoles, segments.h): a real sensor's blobs without depth (dark, shining or
+  /// grazing surfaces, the projector's shadow) no longer cut an object into segments. Only
+  /// the segmentation reads the bridged depth; solves, scores and the frame check read the
+  /// frame's. 0 = off.
+  int bridge_holes_px = 0;
   /// Segments whose pixel boxes lie within this many pixels of each other are neighbours.
   int neighbour_gap_px = 6;
   /// Unions of at most this many neighbouring segments are candidates too.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <sstream>
 
@@ -134,6 +135,53 @@ std::vector<DepthSegment> SegmentStatistics(const Camera& camera, const cv::Mat&
     }
   }
   return segments;
+}
+
+cv::Mat BridgeDepthHoles(const Camera& camera, const cv::Mat& depth, int max_gap_px, const SegmentOptions& options) {
+  if (depth.type() != CV_32F) G6D_THROW("BridgeDepthHoles: depth must be CV_32F (got type " << depth.type() << ")");
+  if (max_gap_px <= 0) return depth;
+  const double noise = 2.0 * options.noise_sigmas * options.sensor_noise_at_1m;  // times z^2
+  const double slope = 1.0 / std::min(camera.fx, camera.fy);                      // 45 degrees: z per pixel
+  auto measured = [](float z) { return z > 0.0f && std::isfinite(z); };
+  cv::Mat out = depth.clone();
+  cv::Mat span(depth.size(), CV_32S, cv::Scalar(std::numeric_limits<int>::max()));  // the bridge's length so far
+  // One line of pixels (a row or a column): z(k) for k in [0, n).
+  auto bridge_line = [&](int n, const auto& z_at, const auto& set) {
+    int last = -1;  // the last measured pixel
+    for (int k = 0; k < n; ++k) {
+      const float z = z_at(k);
+      if (!measured(z)) continue;
+      const int gap = k - last - 1;
+      if (last >= 0 && gap > 0 && gap <= max_gap_px) {
+        const float a = z_at(last);
+        const double far = std::max(a, z);
+        if (std::abs(a - z) <= noise * far * far + (gap + 1) * far * slope) {
+          for (int j = last + 1; j < k; ++j) set(j, a + (z - a) * static_cast<float>(j - last) / (gap + 1), gap);
+        }
+      }
+      last = k;
+    }
+  };
+  for (int v = 0; v < depth.rows; ++v) {
+    const float* row = depth.ptr<float>(v);
+    bridge_line(
+        depth.cols, [&](int u) { return row[u]; },
+        [&](int u, float z, int gap) {
+          out.at<float>(v, u) = z;
+          span.at<int>(v, u) = gap;
+        });
+  }
+  for (int u = 0; u < depth.cols; ++u) {
+    bridge_line(
+        depth.rows, [&](int v) { return depth.at<float>(v, u); },
+        [&](int v, float z, int gap) {
+          if (gap < span.at<int>(v, u)) {
+            out.at<float>(v, u) = z;
+            span.at<int>(v, u) = gap;
+          }
+        });
+  }
+  return out;
 }
 
 DepthSegmentation SegmentByDepth(const Camera& camera, const cv::Mat& depth, const cv::Mat& region,

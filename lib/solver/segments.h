@@ -89,6 +89,17 @@ struct DepthSegmentation {
 std::vector<DepthSegment> SegmentStatistics(const Camera& camera, const cv::Mat& depth, const cv::Mat& labels,
                                             int count);
 
+/// `depth` (CV_32F metres, 0 or NaN = none) with its small holes bridged, for segmentation:
+/// a pixel without depth that lies, along its row or its column, between two measured
+/// pixels at most `max_gap_px` apart (nothing measured between them) whose depths could be
+/// one surface across the gap (they differ by at most twice the noise of options.noise_sigmas
+/// plus a 45-degree slope over the gap) takes the depth interpolated between them (the
+/// shorter of the two spans). A real sensor loses depth in blobs on dark, shining or grazing
+/// surfaces and in the projector's shadow; without a bridge such a hole cuts one object into
+/// segments. A step between two surfaces (an object's edge) is not bridged. `max_gap_px` <=
+/// 0: the depth as it is. Throws g6d::Error for a depth that is not CV_32F.
+cv::Mat BridgeDepthHoles(const Camera& camera, const cv::Mat& depth, int max_gap_px, const SegmentOptions& options);
+
 /// Splits the pixels of `region` (CV_8U, non-zero = in) with valid depth (`depth`: CV_32F
 /// metres, 0 or NaN = invalid) into 4-connected segments whose neighbouring depths differ by
 /// at most the noise of the sensor plus the step of a surface at options.max_incidence_deg.
