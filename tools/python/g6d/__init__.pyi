@@ -300,6 +300,7 @@ class DetectOptions(_Options):
     island_pieces_uncoloured_only: bool
     island_silhouettes: bool
     uncoloured_island_bonus: float
+    bridge_holes_px: int
     neighbour_gap_px: int
     max_union_segments: int
     max_regions: int
