@@ -23,6 +23,19 @@ std::string TrackSolveOptions::Check() const {
   return out.str();
 }
 
+namespace {
+
+// The rotation by `angle_rad` about `axis` (unit, object frame) through `point`: a symmetry
+// of a surface of revolution with that axis.
+Eigen::Isometry3d TurnAbout(const Eigen::Vector3d& axis, const Eigen::Vector3d& point, double angle_rad) {
+  Eigen::Isometry3d turn = Eigen::Isometry3d::Identity();
+  turn.linear() = Eigen::AngleAxisd(angle_rad, axis).toRotationMatrix();
+  turn.translation() = point - turn.linear() * point;
+  return turn;
+}
+
+}  // namespace
+
 Eigen::Isometry3d KeepTurnAboutAxis(const MeshSymmetries& shape, const Eigen::Isometry3d& start,
                                     const Eigen::Isometry3d& pose) {
   if (!shape.revolution) return pose;
@@ -30,10 +43,7 @@ Eigen::Isometry3d KeepTurnAboutAxis(const MeshSymmetries& shape, const Eigen::Is
   const Eigen::Quaterniond delta(Eigen::Matrix3d(start.linear().transpose() * pose.linear()));
   const Eigen::Vector3d axis = shape.axis.normalized();
   const double twist = 2.0 * std::atan2(delta.vec().dot(axis), delta.w());
-  Eigen::Isometry3d turn = Eigen::Isometry3d::Identity();
-  turn.linear() = Eigen::AngleAxisd(twist, axis).toRotationMatrix();
-  turn.translation() = shape.point - turn.linear() * shape.point;
-  return pose * turn.inverse();
+  return pose * TurnAbout(axis, shape.point, twist).inverse();
 }
 
 PoseResult TrackPose(const Frame& frame, const Instance& instance, const TemplateBank& bank,
@@ -135,10 +145,8 @@ PoseResult TrackPose(const Frame& frame, const Instance& instance, const Templat
       const int steps = static_cast<int>(std::floor(track_options.appearance_search_deg / track_options.appearance_step_deg));
       const Eigen::Isometry3d refined = result.cam_from_object;
       for (int k = -steps; k <= steps; ++k) {
-        Eigen::Isometry3d turn = Eigen::Isometry3d::Identity();
-        turn.linear() = Eigen::AngleAxisd(k * track_options.appearance_step_deg * M_PI / 180.0, shape.axis).toRotationMatrix();
-        turn.translation() = shape.point - turn.linear() * shape.point;
-        const Eigen::Isometry3d pose = refined * turn;
+        const Eigen::Isometry3d pose =
+            refined * TurnAbout(shape.axis, shape.point, k * track_options.appearance_step_deg * M_PI / 180.0);
         const AppearanceScore appearance = ScoreAppearance(options.appearance, bank.appearance, bank.online_mesh, frame.camera,
                                                            frame.rgb, observation.mask, pose, &scratch);
         ++stages.appearance_compared;
