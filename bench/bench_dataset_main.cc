@@ -391,6 +391,10 @@ int main(int argc, char** argv) {
   app.add_option("--detect-bridge-holes", detect_options.bridge_holes_px,
                  "--masks none: depth holes at most this many pixels across are bridged for the segmentation (0 = off)")
       ->capture_default_str();
+  app.add_option("--detect-gap-reach", detect_options.gap_neighbour_reach_m,
+                 "--masks none: depth segments on both sides of a gap this many metres wide that holds no depth or a "
+                 "nearer segment are neighbours (0 = off)")
+      ->capture_default_str();
   app.add_option("--detect-max-union", detect_options.max_union_segments,
                  "--masks none: neighbouring depth segments joined into one candidate region, at most")
       ->capture_default_str();

@@ -295,6 +295,93 @@ TEST(FormIslands, PlatesThatTouchGetARegionEach) {
   for (const Proposal& island : islands) EXPECT_LE(island.extent_m, 0.1);
 }
 
+// A box's face (0.9 m) behind a marker-thin occluder (0.75 m, 12 px wide) whose projector
+// shadow (10 px without depth) lies left of it, a second face below it across a band without
+// depth, and a third to its right across a band of the table (support, 1.2 m).
+struct GapScene {
+  cv::Mat depth, region, labels;
+  int left = 0, right = 0, below = 0, beyond_table = 0, occluder = 0;
+};
+
+GapScene MakeGapScene() {
+  GapScene scene;
+  scene.depth = cv::Mat(480, 640, CV_32F, cv::Scalar(1.2f));  // the table
+  scene.region = cv::Mat::zeros(480, 640, CV_8U);
+  auto put = [&](cv::Rect rect, float z) {
+    scene.depth(rect).setTo(z);
+    scene.region(rect).setTo(255);
+  };
+  put(cv::Rect(100, 150, 200, 100), 0.9f);   // the face behind, u 100..299
+  put(cv::Rect(190, 150, 10, 100), 0.0f);    // the shadow, u 190..199
+  put(cv::Rect(200, 120, 12, 160), 0.75f);   // the occluder, u 200..211
+  put(cv::Rect(212, 250, 88, 12), 0.0f);     // a band without depth, v 250..261
+  put(cv::Rect(212, 262, 88, 60), 0.9f);     // the face below it
+  put(cv::Rect(320, 150, 80, 100), 0.9f);    // beyond 20 px of table, u 320..399
+  SegmentOptions options;
+  options.min_segment_pixels = 40;
+  scene.labels = SegmentByDepth(kCamera, scene.depth, scene.region, options).labels;
+  scene.left = scene.labels.at<int>(200, 150);
+  scene.right = scene.labels.at<int>(200, 250);
+  scene.below = scene.labels.at<int>(290, 250);
+  scene.beyond_table = scene.labels.at<int>(200, 350);
+  scene.occluder = scene.labels.at<int>(200, 205);
+  return scene;
+}
+
+TEST(NeighboursAcrossGaps, TheTwoSidesOfAnOccluderAndItsShadowAreNeighboursAndTheTableStopsThePath) {
+  const GapScene scene = MakeGapScene();
+  const std::set<int> labels{scene.left, scene.right, scene.below, scene.beyond_table, scene.occluder};
+  ASSERT_EQ(labels.size(), 5u);
+  ASSERT_EQ(labels.count(0), 0u);
+  DepthSegmentation segmentation;
+  segmentation.labels = scene.labels;
+  const int count = *std::max_element(labels.begin(), labels.end());
+  segmentation.segments = SegmentStatistics(kCamera, scene.depth, scene.labels, count);
+  auto has = [](const std::set<std::pair<int, int>>& pairs, int a, int b) {
+    return pairs.count({std::min(a, b), std::max(a, b)}) > 0;
+  };
+  // The gap between the face's two sides is 22 px: 0.035 m at 0.9 m is 22.3 px.
+  const auto across = NeighboursAcrossGaps(kCamera, scene.depth, scene.region, segmentation, 0.035, 0.01);
+  EXPECT_TRUE(has(across, scene.left, scene.right));
+  EXPECT_TRUE(has(across, scene.right, scene.below));       // 12 px without depth
+  EXPECT_FALSE(has(across, scene.right, scene.beyond_table));  // 20 px of table: support is no gap
+  // The box-distance neighbours see neither gap.
+  const auto near = NeighbourSegments(scene.labels, 6);
+  EXPECT_FALSE(has(near, scene.left, scene.right));
+  EXPECT_FALSE(has(near, scene.right, scene.below));
+  // A reach shorter than the gap, or an occluder that is not in front by the margin.
+  const auto short_reach = NeighboursAcrossGaps(kCamera, scene.depth, scene.region, segmentation, 0.025, 0.01);
+  EXPECT_FALSE(has(short_reach, scene.left, scene.right));
+  EXPECT_TRUE(has(short_reach, scene.right, scene.below));
+  const auto wide_margin = NeighboursAcrossGaps(kCamera, scene.depth, scene.region, segmentation, 0.035, 0.2);
+  EXPECT_FALSE(has(wide_margin, scene.left, scene.right));
+  EXPECT_TRUE(NeighboursAcrossGaps(kCamera, scene.depth, scene.region, segmentation, 0.0, 0.01).empty());
+  EXPECT_THROW(NeighboursAcrossGaps(kCamera, scene.depth, cv::Mat::zeros(10, 10, CV_8U), segmentation, 0.035, 0.01),
+               Error);
+}
+
+TEST(FormRegions, AFaceSplitByAnOccluderIsOneRegionWithoutIt) {
+  const GapScene scene = MakeGapScene();
+  DepthSegmentation segmentation;
+  segmentation.labels = scene.labels;
+  double max_label = 0.0;
+  cv::minMaxLoc(scene.labels, nullptr, &max_label);
+  segmentation.segments = SegmentStatistics(kCamera, scene.depth, scene.labels, static_cast<int>(max_label));
+  DetectOptions options;
+  std::set<std::pair<int, int>> neighbours = NeighbourSegments(scene.labels, options.neighbour_gap_px);
+  const auto across = NeighboursAcrossGaps(kCamera, scene.depth, scene.region, segmentation, 0.035, 0.01);
+  auto holds = [&](const std::vector<Proposal>& proposals) {
+    for (const Proposal& proposal : proposals) {
+      if (proposal.segments == std::vector<int>{std::min(scene.left, scene.right), std::max(scene.left, scene.right)}) return true;
+    }
+    return false;
+  };
+  // The face is 200 px = 0.31 m wide: a largest extent of 0.5 m lets the union fit.
+  EXPECT_FALSE(holds(FormRegions(segmentation, neighbours, 0.5, options)));
+  neighbours.insert(across.begin(), across.end());
+  EXPECT_TRUE(holds(FormRegions(segmentation, neighbours, 0.5, options)));
+}
+
 TEST(DetectOptions, TheSupportAndIslandFieldsAreChecked) {
   DetectOptions options;
   options.raised_window_px = 4;
@@ -323,6 +410,12 @@ TEST(DetectOptions, TheSupportAndIslandFieldsAreChecked) {
   options = DetectOptions();
   options.island_split_max_pieces = 1;
   EXPECT_NE(options.Check().find("island_split_max_pieces"), std::string::npos);
+  options = DetectOptions();
+  options.gap_neighbour_reach_m = -0.01;
+  EXPECT_NE(options.Check().find("gap_neighbour_reach_m"), std::string::npos);
+  options = DetectOptions();
+  options.gap_occluder_margin_m = 0.0;
+  EXPECT_NE(options.Check().find("gap_occluder_margin_m"), std::string::npos);
 }
 
 }  // namespace

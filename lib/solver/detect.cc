@@ -607,8 +607,13 @@ std::vector<Detection> DetectObjects(const Frame& frame, const std::vector<Detec
       double farthest = 0.0;
       for (const DepthSegment& segment : segmentation.segments) farthest = std::max(farthest, segment.median_depth_m);
       const double largest_extent_m = largest_diameter_m + allowance_m(farthest);
-      std::vector<Proposal> proposals = FormRegions(
-          segmentation, NeighbourSegments(segmentation.labels, options.neighbour_gap_px), largest_extent_m, options);
+      std::set<std::pair<int, int>> neighbours = NeighbourSegments(segmentation.labels, options.neighbour_gap_px);
+      if (options.gap_neighbour_reach_m > 0.0) {
+        const std::set<std::pair<int, int>> across = NeighboursAcrossGaps(
+            frame.camera, segment_depth, region, segmentation, options.gap_neighbour_reach_m, options.gap_occluder_margin_m);
+        neighbours.insert(across.begin(), across.end());
+      }
+      std::vector<Proposal> proposals = FormRegions(segmentation, neighbours, largest_extent_m, options);
       if (!all_within) {  // an island is no candidate for a request that says where its object is
         for (Proposal& proposal : FormIslands(frame, island_region, largest_extent_m, options)) proposals.push_back(std::move(proposal));
       }

@@ -30,6 +30,8 @@ std::string DetectOptions::Check() const {
   else if (island_split_max_pieces < 2) out << "DetectOptions.island_split_max_pieces must be >= 2 (got " << island_split_max_pieces << ")";
   else if (island_split_min_core_px < 1) out << "DetectOptions.island_split_min_core_px must be >= 1 (got " << island_split_min_core_px << ")";
   else if (!(uncoloured_island_bonus >= 0.0 && uncoloured_island_bonus <= 1.0)) out << "DetectOptions.uncoloured_island_bonus must be in [0, 1] (got " << uncoloured_island_bonus << ")";
+  else if (!(gap_neighbour_reach_m >= 0.0 && gap_neighbour_reach_m <= 0.5)) out << "DetectOptions.gap_neighbour_reach_m must be in [0, 0.5] m (0 = off; got " << gap_neighbour_reach_m << ")";
+  else if (!(gap_occluder_margin_m > 0.0 && gap_occluder_margin_m <= 1.0)) out << "DetectOptions.gap_occluder_margin_m must be in (0, 1] m (got " << gap_occluder_margin_m << ")";
   else if (neighbour_gap_px < 1) out << "DetectOptions.neighbour_gap_px must be >= 1 (got " << neighbour_gap_px << ")";
   else if (max_union_segments < 1) out << "DetectOptions.max_union_segments must be >= 1 (got " << max_union_segments << ")";
   else if (max_regions < 1) out << "DetectOptions.max_regions must be >= 1 (got " << max_regions << ")";

@@ -104,6 +104,18 @@ struct DetectOptions {
   int bridge_holes_px = 0;
   /// Segments whose pixel boxes lie within this many pixels of each other are neighbours.
   int neighbour_gap_px = 6;
+  /// Segments also are neighbours across a gap of at most this many metres (at a segment's
+  /// depth) that holds no depth, fragments or a nearer segment (NeighboursAcrossGaps,
+  /// proposals.h): the two sides of an object behind a thin occluder, widened by the
+  /// projector's shadow, or an object a real sensor's holes cut in pieces. 0 = off. On LM-O
+  /// every 4th through the simulated sensor (g6d-bench-dataset --depth-sensor) 86.3% ->
+  /// 88.0% without masks, every other dev set's answers unchanged; 0.06 lost a synth_dev
+  /// bin part (bench/RESULTS.md, "Neighbours across a gap").
+  double gap_neighbour_reach_m = 0.03;
+  /// A segment is an occluder on such a path when its median depth lies this many metres in
+  /// front of the segment the path starts from; a fragment more than this behind it stops the
+  /// path (what lies behind is no gap).
+  double gap_occluder_margin_m = 0.01;
   /// Unions of at most this many neighbouring segments are candidates too.
   int max_union_segments = 3;
   /// At most this many distinct regions (segments and unions) are formed.

@@ -441,6 +441,77 @@ std::set<std::pair<int, int>> NeighbourSegments(const cv::Mat& labels, int gap_p
   return pairs;
 }
 
+std::set<std::pair<int, int>> NeighboursAcrossGaps(const Camera& camera, const cv::Mat& depth, const cv::Mat& region,
+                                                   const DepthSegmentation& segmentation, double reach_m,
+                                                   double occluder_margin_m) {
+  std::set<std::pair<int, int>> pairs;
+  if (!(reach_m > 0.0)) return pairs;
+  const cv::Mat& labels = segmentation.labels;
+  if (labels.type() != CV_32S || depth.type() != CV_32F || region.type() != CV_8U || depth.size() != labels.size() ||
+      region.size() != labels.size()) {
+    G6D_THROW("NeighboursAcrossGaps: labels must be CV_32S, depth CV_32F and region CV_8U of one size (got types "
+              << labels.type() << ", " << depth.type() << ", " << region.type() << ")");
+  }
+  const int width = labels.cols, height = labels.rows;
+  const double focal_px = 0.5 * (camera.fx + camera.fy);
+  std::vector<int> stamp(static_cast<size_t>(width) * static_cast<size_t>(height), 0);  // the segment that reached it
+  std::vector<int> steps(stamp.size(), 0);
+  std::vector<int> queue;
+  const std::vector<DepthSegment>& segments = segmentation.segments;
+  for (size_t k = 0; k < segments.size(); ++k) {
+    const DepthSegment& segment = segments[k];
+    const int label = static_cast<int>(k) + 1;
+    if (segment.pixels == 0 || !(segment.median_depth_m > 0.0)) continue;
+    const double z = segment.median_depth_m;
+    const int reach_px = std::clamp(static_cast<int>(std::ceil(reach_m * focal_px / z)), 1, 200);
+    const cv::Rect box = (segment.box + cv::Point(-reach_px, -reach_px) + cv::Size(2 * reach_px, 2 * reach_px)) &
+                         cv::Rect(0, 0, width, height);
+    queue.clear();
+    for (int v = segment.box.y; v < segment.box.y + segment.box.height; ++v) {
+      const int* l = labels.ptr<int>(v);
+      for (int u = segment.box.x; u < segment.box.x + segment.box.width; ++u) {
+        if (l[u] != label) continue;
+        const size_t at = static_cast<size_t>(v) * width + u;
+        stamp[at] = label;
+        steps[at] = 0;
+        queue.push_back(static_cast<int>(at));
+      }
+    }
+    // Breadth first: every pixel is reached by its shortest path first.
+    for (size_t head = 0; head < queue.size(); ++head) {
+      const int at = queue[head];
+      const int u = at % width, v = at / width;
+      if (steps[static_cast<size_t>(at)] >= reach_px) continue;
+      const int next_u[4] = {u + 1, u - 1, u, u};
+      const int next_v[4] = {v, v, v + 1, v - 1};
+      for (int n = 0; n < 4; ++n) {
+        const int nu = next_u[n], nv = next_v[n];
+        if (nu < box.x || nu >= box.x + box.width || nv < box.y || nv >= box.y + box.height) continue;
+        const size_t next = static_cast<size_t>(nv) * width + nu;
+        if (stamp[next] == label) continue;
+        stamp[next] = label;
+        const int other = labels.at<int>(nv, nu);
+        bool passes = false;
+        if (other > 0) {
+          if (segments[static_cast<size_t>(other - 1)].median_depth_m < z - occluder_margin_m) {
+            passes = true;  // an occluder: what it hides may continue behind it
+          } else {
+            pairs.insert({std::min(label, other), std::max(label, other)});
+          }
+        } else if (region.at<uint8_t>(nv, nu) != 0) {
+          const float zq = depth.at<float>(nv, nu);
+          passes = !ValidDepth(zq) || zq < z + occluder_margin_m;  // a hole, or a fragment not behind it
+        }
+        if (passes) {
+          steps[next] = steps[static_cast<size_t>(at)] + 1;
+          queue.push_back(static_cast<int>(next));
+        }
+      }
+    }
+  }
+  return pairs;
+}
+
 cv::Mat RegionMask(const cv::Mat& labels, const Proposal& proposal) {
   if (!proposal.mask.empty()) return proposal.mask;
   cv::Mat mask = cv::Mat::zeros(labels.size(), CV_8U);

@@ -83,6 +83,21 @@ double DepthBehindPlane(const SupportPlane& support, const Mesh& mesh, const Eig
 /// Pairs of segments (1-based labels, a < b) with pixels within `gap_px` of each other.
 std::set<std::pair<int, int>> NeighbourSegments(const cv::Mat& labels, int gap_px);
 
+/// Pairs of segments (1-based labels, a < b) that may be one surface seen on both sides of
+/// a gap: from a segment's pixels a path of at most `reach_m` (metres across the image at the
+/// segment's median depth, in pixels) through pixels of `region` that hold no segment and
+/// have no depth or a fragment's depth not behind the segment by more than `occluder_margin_m`,
+/// or through a segment nearer the camera than it by more than `occluder_margin_m`, reaches
+/// the other segment. An object behind a thin occluder shows on both sides of it, and a real
+/// sensor widens the gap by the projector's shadow and loses depth in blobs on dark or
+/// shining surfaces; within NeighbourSegments' few pixels such pieces are no neighbours.
+/// Support and what lies behind it stop a path: a gap is crossed only through what hides or
+/// what gives no depth. Unions formed of such pairs (FormRegions) hold the pieces without
+/// the occluder. Empty for reach_m <= 0. Throws g6d::Error for mismatched sizes or types.
+std::set<std::pair<int, int>> NeighboursAcrossGaps(const Camera& camera, const cv::Mat& depth, const cv::Mat& region,
+                                                   const DepthSegmentation& segmentation, double reach_m,
+                                                   double occluder_margin_m);
+
 /// The full-frame 0/255 mask of a region's segments (its own mask, for a region that has one).
 cv::Mat RegionMask(const cv::Mat& labels, const Proposal& proposal);
 

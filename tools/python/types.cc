@@ -391,7 +391,7 @@ void BindOptions(py::module_& module) {
         G6D_FIELD(raised_outline_edge) G6D_FIELD(raised_outline_ring_px) G6D_FIELD(raised_outline_min_noise) G6D_FIELD(island_open_px) G6D_FIELD(island_split_core) G6D_FIELD(island_split_window)
         G6D_FIELD(island_split_min_core_px) G6D_FIELD(island_split_max_pieces) G6D_FIELD(island_pieces_uncoloured_only)
         G6D_FIELD(island_silhouettes) G6D_FIELD(uncoloured_island_bonus)
-        G6D_FIELD(bridge_holes_px) G6D_FIELD(neighbour_gap_px) G6D_FIELD(max_union_segments) G6D_FIELD(max_regions)
+        G6D_FIELD(bridge_holes_px) G6D_FIELD(neighbour_gap_px) G6D_FIELD(gap_neighbour_reach_m) G6D_FIELD(gap_occluder_margin_m) G6D_FIELD(max_union_segments) G6D_FIELD(max_regions)
         G6D_FIELD(extent_margin_px) G6D_FIELD(min_extent_fraction) G6D_FIELD(min_area_fraction)
         G6D_FIELD(extra_candidates) G6D_FIELD(colour_weight) G6D_FIELD(rank_uncoloured_by_shape) G6D_FIELD(shape_references) G6D_FIELD(accept_confidence)
         G6D_FIELD(accept_region_iou) G6D_FIELD(fill_gap_px) G6D_FIELD(explain_away_passes) G6D_FIELD(found_object_passes) G6D_FIELD(refuse_behind_support) G6D_FIELD(sure_first_confidence) G6D_FIELD(support_limit_from_frame)

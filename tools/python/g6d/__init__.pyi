@@ -302,6 +302,8 @@ class DetectOptions(_Options):
     uncoloured_island_bonus: float
     bridge_holes_px: int
     neighbour_gap_px: int
+    gap_neighbour_reach_m: float
+    gap_occluder_margin_m: float
     max_union_segments: int
     max_regions: int
     extent_margin_px: float
