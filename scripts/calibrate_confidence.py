@@ -105,13 +105,15 @@ def solve(a, b):
     return [m[i][n] / m[i][i] for i in range(n)]
 
 
-def fit(rows, l2=1e-3, features=features):
-    """Logistic regression of r["y"] on features(r) (Newton's method, L2 penalty)."""
+def fit(rows, l2=1e-3, features=features, unpenalized=()):
+    """Logistic regression of r["y"] on features(r) (Newton's method, L2 penalty on every weight
+    but those whose indices are in `unpenalized`)."""
     k = len(features(rows[0]))
     w = [0.0] * k
+    penalty = [0.0 if i in unpenalized else l2 for i in range(k)]
     for _ in range(100):
-        g = [l2 * wi for wi in w]
-        h = [[l2 if i == j else 0.0 for j in range(k)] for i in range(k)]
+        g = [pi * wi for pi, wi in zip(penalty, w)]
+        h = [[penalty[i] + 1e-9 if i == j else 0.0 for j in range(k)] for i in range(k)]
         for r in rows:
             x = features(r)
             p = sigmoid(sum(wi * xi for wi, xi in zip(w, x)))
