@@ -66,9 +66,6 @@ PoseResult SolveOnDepthRegions(const Frame& frame, const Instance& instance, con
   // battery split at their own creases, and a fragment) cost little. On LM-O merged masks
   // 93.5% against 93.3% with 3, boxes 92.4% against 91.8% (bench/RESULTS.md, issue 22).
   detect.max_union_segments = 4;
-  // Neighbours across gaps (detection's default since 2026-12-02) were measured without
-  // masks only: this search keeps the neighbours it was measured with.
-  detect.gap_neighbour_reach_m = 0.0;
   // The support and the ranking as this search was measured with (detection's defaults are
   // 5 planes and the area's agreement since).
   detect.max_planes = 3;

@@ -107,11 +107,12 @@ struct DetectOptions {
   /// Segments also are neighbours across a gap of at most this many metres (at a segment's
   /// depth) that holds no depth, fragments or a nearer segment (NeighboursAcrossGaps,
   /// proposals.h): the two sides of an object behind a thin occluder, widened by the
-  /// projector's shadow, or an object a real sensor's holes cut in pieces. 0 = off. On LM-O
-  /// every 4th through the simulated sensor (g6d-bench-dataset --depth-sensor) 86.3% ->
-  /// 88.0% without masks, every other dev set's answers unchanged; 0.06 lost a synth_dev
-  /// bin part (bench/RESULTS.md, "Neighbours across a gap").
-  double gap_neighbour_reach_m = 0.03;
+  /// projector's shadow, or an object a real sensor's holes cut in pieces. 0 = off, the
+  /// default: at 0.03 on LM-O every 4th through the simulated sensor (g6d-bench-dataset
+  /// --depth-sensor) the mean over five sensor seeds went from 87.2% to 87.5% without masks
+  /// (+1.7 points on one seed, -0.9 on two), every other dev set's answers unchanged, and the
+  /// proposals took 2-9 ms more (bench/RESULTS.md, "Neighbours across a gap").
+  double gap_neighbour_reach_m = 0.0;
   /// A segment is an occluder on such a path when its median depth lies this many metres in
   /// front of the segment the path starts from; a fragment more than this behind it stops the
   /// path (what lies behind is no gap).
