@@ -299,7 +299,8 @@ TEST(FormIslands, PlatesThatTouchGetARegionEach) {
 // shadow (10 px without depth) lies left of it, a second face below it across a band without
 // depth, and a third to its right across a band of the table (support, 1.2 m).
 struct GapScene {
-  cv::Mat depth, region, labels;
+  cv::Mat depth, region;
+  DepthSegmentation segmentation;
   int left = 0, right = 0, below = 0, beyond_table = 0, occluder = 0;
 };
 
@@ -319,12 +320,13 @@ GapScene MakeGapScene() {
   put(cv::Rect(320, 150, 80, 100), 0.9f);    // beyond 20 px of table, u 320..399
   SegmentOptions options;
   options.min_segment_pixels = 40;
-  scene.labels = SegmentByDepth(kCamera, scene.depth, scene.region, options).labels;
-  scene.left = scene.labels.at<int>(200, 150);
-  scene.right = scene.labels.at<int>(200, 250);
-  scene.below = scene.labels.at<int>(290, 250);
-  scene.beyond_table = scene.labels.at<int>(200, 350);
-  scene.occluder = scene.labels.at<int>(200, 205);
+  scene.segmentation = SegmentByDepth(kCamera, scene.depth, scene.region, options);
+  const cv::Mat& labels = scene.segmentation.labels;
+  scene.left = labels.at<int>(200, 150);
+  scene.right = labels.at<int>(200, 250);
+  scene.below = labels.at<int>(290, 250);
+  scene.beyond_table = labels.at<int>(200, 350);
+  scene.occluder = labels.at<int>(200, 205);
   return scene;
 }
 
@@ -333,10 +335,7 @@ TEST(NeighboursAcrossGaps, TheTwoSidesOfAnOccluderAndItsShadowAreNeighboursAndTh
   const std::set<int> labels{scene.left, scene.right, scene.below, scene.beyond_table, scene.occluder};
   ASSERT_EQ(labels.size(), 5u);
   ASSERT_EQ(labels.count(0), 0u);
-  DepthSegmentation segmentation;
-  segmentation.labels = scene.labels;
-  const int count = *std::max_element(labels.begin(), labels.end());
-  segmentation.segments = SegmentStatistics(kCamera, scene.depth, scene.labels, count);
+  const DepthSegmentation& segmentation = scene.segmentation;
   auto has = [](const std::set<std::pair<int, int>>& pairs, int a, int b) {
     return pairs.count({std::min(a, b), std::max(a, b)}) > 0;
   };
@@ -346,7 +345,7 @@ TEST(NeighboursAcrossGaps, TheTwoSidesOfAnOccluderAndItsShadowAreNeighboursAndTh
   EXPECT_TRUE(has(across, scene.right, scene.below));       // 12 px without depth
   EXPECT_FALSE(has(across, scene.right, scene.beyond_table));  // 20 px of table: support is no gap
   // The box-distance neighbours see neither gap.
-  const auto near = NeighbourSegments(scene.labels, 6);
+  const auto near = NeighbourSegments(segmentation.labels, 6);
   EXPECT_FALSE(has(near, scene.left, scene.right));
   EXPECT_FALSE(has(near, scene.right, scene.below));
   // A reach shorter than the gap, or an occluder that is not in front by the margin.
@@ -362,13 +361,9 @@ TEST(NeighboursAcrossGaps, TheTwoSidesOfAnOccluderAndItsShadowAreNeighboursAndTh
 
 TEST(FormRegions, AFaceSplitByAnOccluderIsOneRegionWithoutIt) {
   const GapScene scene = MakeGapScene();
-  DepthSegmentation segmentation;
-  segmentation.labels = scene.labels;
-  double max_label = 0.0;
-  cv::minMaxLoc(scene.labels, nullptr, &max_label);
-  segmentation.segments = SegmentStatistics(kCamera, scene.depth, scene.labels, static_cast<int>(max_label));
+  const DepthSegmentation& segmentation = scene.segmentation;
   DetectOptions options;
-  std::set<std::pair<int, int>> neighbours = NeighbourSegments(scene.labels, options.neighbour_gap_px);
+  std::set<std::pair<int, int>> neighbours = NeighbourSegments(segmentation.labels, options.neighbour_gap_px);
   const auto across = NeighboursAcrossGaps(kCamera, scene.depth, scene.region, segmentation, 0.035, 0.01);
   auto holds = [&](const std::vector<Proposal>& proposals) {
     for (const Proposal& proposal : proposals) {
