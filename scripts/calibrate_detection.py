@@ -40,7 +40,8 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from calibrate_confidence import fit, predict, report  # noqa: E402
+from calibrate_confidence import fit_standardized as shared_fit_standardized  # noqa: E402
+from calibrate_confidence import predict, report  # noqa: E402
 
 FEATURES = ["bias", "score", "ambiguous", "on_surface", "free_space", "contour", "region_iou", "colour", "in_image",
             "edge", "runner_up", "free_band"]
@@ -65,25 +66,8 @@ def features(r):
 
 
 def fit_standardized(rows, l2):
-    """fit() on each feature less its mean over `rows` and divided by its standard deviation
-    there, with the L2 penalty `l2` on every weight but the bias, returned as the weights of
-    the features as they are (what DetectOptions' confidence_* fields take). Standardized, one
-    penalty weighs every feature alike whatever its units (a band in pixels, shares in
-    [0, 1]); it keeps a weight from growing to fit a few answers of one kind of scene."""
-    xs = [features(r) for r in rows]
-    k, n = len(xs[0]), len(xs)
-    mean = [sum(x[i] for x in xs) / n for i in range(k)]
-    sd = [(sum((x[i] - mean[i]) ** 2 for x in xs) / n) ** 0.5 for i in range(k)]
-    mean[0], sd[0] = 0.0, 1.0  # the bias column
-    sd = [s if s > 1e-12 else 1.0 for s in sd]  # a feature constant over these rows
-
-    def scaled(r):
-        return [(x - m) / s for x, m, s in zip(features(r), mean, sd)]
-
-    w = fit(rows, l2=l2, features=scaled, unpenalized=(0,))
-    raw = [wi / si for wi, si in zip(w, sd)]
-    raw[0] = w[0] - sum(wi * mi / si for wi, mi, si in zip(w[1:], mean[1:], sd[1:]))
-    return raw
+    """calibrate_confidence.fit_standardized on this script's features."""
+    return shared_fit_standardized(rows, l2, features=features)
 
 
 def load(path):
