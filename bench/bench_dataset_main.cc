@@ -331,6 +331,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--detect-raised-window", detect_options.raised_window_px,
                  "--masks none: the raised test averages the height above a support over squares of this side (odd)");
+  app.add_option("--detect-plane-flatness", detect_options.plane_flatness_m,
+                 "--masks none: a support plane's tolerance beyond the sensor's noise, metres (DetectOptions::plane_flatness_m)")
+      ->capture_default_str();
   app.add_option("--detect-max-planes", detect_options.max_planes,
                  "--masks none: support planes at most (RANSAC, one after the other)");
   app.add_option("--detect-island-open", detect_options.island_open_px,
