@@ -93,12 +93,9 @@ class Split:
         wide = [r for r in rows if r["wide"] and not r["dup"]]
 
         def one(subset, feats):
-            if l2 is None:
-                return fit(subset, features=feats)
-            # A feature a subset does not vary (the wide fit's zeroed frame check) stays 0.
-            w = fit_standardized(subset, l2, features=feats)
-            return [wi if i == 0 or any(feats(r)[i] != feats(subset[0])[i] for r in subset) else 0.0
-                    for i, wi in enumerate(w)]
+            # Standardized, a feature the subset does not vary (the wide fit's zeroed frame
+            # check) is 0 on every row, and its weight stays 0.
+            return fit(subset, features=feats) if l2 is None else fit_standardized(subset, l2, features=feats)
 
         self.fit = one(fitting, answer_features) if fitting else [0.0] * len(WEIGHTS)
         self.wide = one(wide, wide_features) if wide else self.fit
