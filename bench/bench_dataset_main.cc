@@ -331,6 +331,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--detect-raised-window", detect_options.raised_window_px,
                  "--masks none: the raised test averages the height above a support over squares of this side (odd)");
+  app.add_option("--detect-measure-flatness", detect_options.measure_plane_flatness,
+                 "--masks none: each support plane reads its flatness off its largest part, at most "
+                 "--detect-plane-flatness (DetectOptions::measure_plane_flatness)")
+      ->capture_default_str();
   app.add_option("--detect-plane-flatness", detect_options.plane_flatness_m,
                  "--masks none: a support plane's tolerance beyond the sensor's noise, metres (DetectOptions::plane_flatness_m)")
       ->capture_default_str();

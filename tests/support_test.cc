@@ -177,6 +177,46 @@ TEST(FindSupport, TheSensorsNoiseAloneRaisesNothing) {
   EXPECT_GT(cv::countNonZero(support & ~scene.block), 0.99 * cv::countNonZero(with_depth & ~scene.block));
 }
 
+// DetectOptions::measure_plane_flatness: a bin's floor 6 mm above the ground, walled off by
+// a band without depth, lies within the fixed tolerance (3 sigma of the noise + 6 mm) and
+// goes with the ground; a plane that reads its flatness off its own largest part (the
+// ground: flat to the noise) leaves it to a plane of its own. A floor bent by 5 mm across the
+// image stays one support either way.
+TEST(FindSupport, APlaneThatMeasuresItsFlatnessLeavesABinsFloorToAPlaneOfItsOwn) {
+  FloorScene scene = EmptyScene();
+  const cv::Rect bin(200, 150, 240, 180);
+  scene.plate(bin).setTo(255);
+  FillDepth(0.006, 1.0, 0.0007, 5, &scene);
+  cv::Mat wall = cv::Mat::zeros(480, 640, CV_8U);
+  cv::rectangle(wall, bin, cv::Scalar(255), 8);
+  scene.frame.depth.setTo(0.0f, wall);
+  scene.plate.setTo(0, wall);
+  const cv::Mat ground = ~(scene.plate | wall);
+  DetectOptions options;
+  options.raised_sigmas = 0.0;  // the planes alone
+  cv::Mat support;
+  std::vector<SupportPlane> planes;
+  EXPECT_EQ(FindSupport(scene.frame, options, 0.1, &support, nullptr, &planes), 1);
+  EXPECT_GT(FractionWithDepthIn(scene, scene.plate, planes[0].pixels), 0.95);
+  options.measure_plane_flatness = true;
+  ASSERT_EQ(FindSupport(scene.frame, options, 0.1, &support, nullptr, &planes), 2);
+  EXPECT_GT(FractionWithDepthIn(scene, ground, planes[0].pixels), 0.97);
+  EXPECT_LT(FractionWithDepthIn(scene, scene.plate, planes[0].pixels), 0.05);
+  EXPECT_GT(FractionWithDepthIn(scene, scene.plate, planes[1].pixels), 0.95);
+
+  FloorScene bent = EmptyScene();
+  std::mt19937 random(3);
+  std::normal_distribution<double> noise(0.0, 0.0007);
+  for (int v = 0; v < 480; ++v) {
+    for (int u = 0; u < 640; ++u) {
+      const double x = (u - 320.0) / 320.0;
+      bent.frame.depth.at<float>(v, u) = static_cast<float>(DepthAt(u, v, 0.005 * x * x) + noise(random));
+    }
+  }
+  EXPECT_EQ(FindSupport(bent.frame, options, 0.1, &support, nullptr, &planes), 1);
+  EXPECT_GT(cv::countNonZero(support), 0.97 * 480 * 640);
+}
+
 TEST(FormIslands, AnObjectLyingApartIsOneRegionWithItsPixelsWithoutDepth) {
   const FloorScene scene = MakeScene(0.003);
   cv::Mat support;

@@ -29,6 +29,12 @@ struct DetectOptions {
   /// growing with z²) plus this: real tables and floors are not flat to the millimetre, and
   /// the depth of a real sensor bends by a few millimetres across the image.
   double plane_flatness_m = 0.006;
+  /// When set, each plane reads its flatness off its own largest support part: the 95th
+  /// percentile of the part's local level (its height above the plane averaged over
+  /// `raised_level_px` squares), at most plane_flatness_m. A flat floor then holds only what
+  /// lies within the noise of it (a bin's floor 8 mm above it is a plane of its own); a bent
+  /// real table keeps its bend.
+  bool measure_plane_flatness = false;
   /// A plane is a support when its inliers hold at least this fraction of the sampled points
   /// and a connected part of them spans more than `support_extent_factor` times the largest
   /// diameter of the objects looked for (so that no face of an object is taken away); only

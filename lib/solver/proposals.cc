@@ -29,7 +29,9 @@ class PlaneTolerance {
   explicit PlaneTolerance(const DetectOptions& options)
       : noise_(options.segments.noise_sigmas * options.segments.sensor_noise_at_1m),
         flatness_(options.plane_flatness_m) {}
+  PlaneTolerance(const DetectOptions& options, double flatness_m) : PlaneTolerance(options) { flatness_ = flatness_m; }
   double operator()(double z) const { return noise_ * z * z + flatness_; }
+  double flatness() const { return flatness_; }
 
  private:
   double noise_, flatness_;
@@ -237,6 +239,38 @@ cv::Mat OutlinedRaisedPixels(const Frame& frame, const Plane& plane, const cv::M
   return raised;
 }
 
+// How flat a support part is (DetectOptions::measure_plane_flatness): the 95th percentile of
+// |its local level| above `plane`, the level being its heights averaged over
+// raised_level_px squares (the sensor's noise averages out, a bend does not). `part`: CV_8U.
+double MeasuredFlatness(const Frame& frame, const Plane& plane, const cv::Mat& part, const DetectOptions& options) {
+  const cv::Mat& depth = frame.depth;
+  cv::Mat height = cv::Mat::zeros(depth.size(), CV_32F), weight = cv::Mat::zeros(depth.size(), CV_32F);
+  for (int v = 0; v < depth.rows; ++v) {
+    const uint8_t* o = part.ptr<uint8_t>(v);
+    const float* d = depth.ptr<float>(v);
+    float* h = height.ptr<float>(v);
+    float* w = weight.ptr<float>(v);
+    for (int u = 0; u < depth.cols; ++u) {
+      if (!o[u]) continue;
+      h[u] = static_cast<float>(plane.Distance(frame.camera.Backproject(PixelCentre(u, v), d[u])));
+      w[u] = 1.0f;
+    }
+  }
+  const cv::Mat level = WeightedAverage(height, weight, options.raised_level_px);
+  std::vector<float> levels;
+  for (int v = 0; v < depth.rows; v += 2) {
+    const uint8_t* o = part.ptr<uint8_t>(v);
+    const float* l = level.ptr<float>(v);
+    for (int u = 0; u < depth.cols; u += 2) {
+      if (o[u]) levels.push_back(std::abs(l[u]));
+    }
+  }
+  if (levels.empty()) return options.plane_flatness_m;
+  const auto at = levels.begin() + static_cast<std::ptrdiff_t>(0.95 * static_cast<double>(levels.size() - 1));
+  std::nth_element(levels.begin(), at, levels.end());
+  return std::min(options.plane_flatness_m, static_cast<double>(*at));
+}
+
 }  // namespace
 
 int FindSupport(const Frame& frame, const DetectOptions& options, double largest_diameter_m, cv::Mat* support,
@@ -289,34 +323,53 @@ int FindSupport(const Frame& frame, const DetectOptions& options, double largest
     }
     const Plane refit = FitPlane(inlier_points);
     const Plane plane = count_inliers(refit) >= best_count ? refit : best;
-    // Full-resolution inliers, split into connected parts; the parts larger than any object
-    // are support.
-    cv::Mat on_plane = cv::Mat::zeros(depth.size(), CV_8U);
-    for (int v = 0; v < depth.rows; ++v) {
-      const float* d = depth.ptr<float>(v);
-      uint8_t* o = on_plane.ptr<uint8_t>(v);
-      const uint8_t* s = support->ptr<uint8_t>(v);
-      for (int u = 0; u < depth.cols; ++u) {
-        if (s[u] || !ValidDepth(d[u])) continue;
-        const Eigen::Vector3d p = frame.camera.Backproject(PixelCentre(u, v), d[u]);
-        o[u] = std::abs(plane.Distance(p)) <= tolerance(p.z()) ? 255 : 0;
-      }
-    }
+    // Full-resolution inliers within `within`, split into connected parts; the parts larger
+    // than any object are support.
     cv::Mat parts;
-    const int part_count = cv::connectedComponents(on_plane, parts, 8, CV_32S);
-    std::vector<std::vector<Eigen::Vector3d>> part_points(static_cast<size_t>(part_count));
-    for (int v = 0; v < depth.rows; v += 2) {
-      const int* l = parts.ptr<int>(v);
-      for (int u = 0; u < depth.cols; u += 2) {
-        if (l[u] > 0) part_points[static_cast<size_t>(l[u])].push_back(frame.camera.Backproject(PixelCentre(u, v), depth.at<float>(v, u)));
-      }
-    }
-    std::vector<uint8_t> is_support(static_cast<size_t>(part_count), 0);
+    std::vector<uint8_t> is_support;
     bool any = false;
-    for (int k = 1; k < part_count; ++k) {
-      is_support[static_cast<size_t>(k)] =
-          PointsExtent(part_points[static_cast<size_t>(k)]) > options.support_extent_factor * largest_diameter_m;
-      any = any || is_support[static_cast<size_t>(k)];
+    auto split_parts = [&](const PlaneTolerance& within) {
+      cv::Mat on_plane = cv::Mat::zeros(depth.size(), CV_8U);
+      for (int v = 0; v < depth.rows; ++v) {
+        const float* d = depth.ptr<float>(v);
+        uint8_t* o = on_plane.ptr<uint8_t>(v);
+        const uint8_t* s = support->ptr<uint8_t>(v);
+        for (int u = 0; u < depth.cols; ++u) {
+          if (s[u] || !ValidDepth(d[u])) continue;
+          const Eigen::Vector3d p = frame.camera.Backproject(PixelCentre(u, v), d[u]);
+          o[u] = std::abs(plane.Distance(p)) <= within(p.z()) ? 255 : 0;
+        }
+      }
+      const int part_count = cv::connectedComponents(on_plane, parts, 8, CV_32S);
+      std::vector<std::vector<Eigen::Vector3d>> part_points(static_cast<size_t>(part_count));
+      for (int v = 0; v < depth.rows; v += 2) {
+        const int* l = parts.ptr<int>(v);
+        for (int u = 0; u < depth.cols; u += 2) {
+          if (l[u] > 0) part_points[static_cast<size_t>(l[u])].push_back(frame.camera.Backproject(PixelCentre(u, v), depth.at<float>(v, u)));
+        }
+      }
+      is_support.assign(static_cast<size_t>(part_count), 0);
+      any = false;
+      int largest = 0;
+      size_t largest_points = 0;
+      for (int k = 1; k < part_count; ++k) {
+        const std::vector<Eigen::Vector3d>& points = part_points[static_cast<size_t>(k)];
+        is_support[static_cast<size_t>(k)] = PointsExtent(points) > options.support_extent_factor * largest_diameter_m;
+        any = any || is_support[static_cast<size_t>(k)];
+        if (is_support[static_cast<size_t>(k)] && points.size() > largest_points) {
+          largest = k;
+          largest_points = points.size();
+        }
+      }
+      return largest;
+    };
+    const int largest = split_parts(tolerance);
+    if (any && options.measure_plane_flatness) {
+      const double flatness = MeasuredFlatness(frame, plane, parts == largest, options);
+      if (flatness < tolerance.flatness()) {
+        split_parts(PlaneTolerance(options, flatness));
+        if (!any) split_parts(tolerance);  // tighter, no part is large enough: as it was
+      }
     }
     if (!any) break;  // the best plane is an object's face, or small: no support left
     ++planes;

@@ -385,7 +385,7 @@ void BindOptions(py::module_& module) {
     using T = DetectOptions;
     OptionsClass<T>(module, "DetectOptions", "Finding objects without a mask, find_objects (solver/detect_options.h).")
         G6D_FIELD(segments) G6D_FIELD(max_planes) G6D_FIELD(plane_iterations) G6D_FIELD(plane_samples)
-        G6D_FIELD(plane_flatness_m) G6D_FIELD(min_plane_fraction) G6D_FIELD(support_extent_factor)
+        G6D_FIELD(plane_flatness_m) G6D_FIELD(measure_plane_flatness) G6D_FIELD(min_plane_fraction) G6D_FIELD(support_extent_factor)
         G6D_FIELD(raised_sigmas) G6D_FIELD(raised_window_px) G6D_FIELD(raised_level_px) G6D_FIELD(raised_min_height_m)
         G6D_FIELD(raised_flatness)
         G6D_FIELD(raised_outline_edge) G6D_FIELD(raised_outline_ring_px) G6D_FIELD(raised_outline_min_noise) G6D_FIELD(island_open_px) G6D_FIELD(island_split_core) G6D_FIELD(island_split_window)
