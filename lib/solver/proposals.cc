@@ -85,24 +85,33 @@ float Median(std::vector<float>* values) {
   return *middle;
 }
 
-// The pixels of a plane's support (`on_support`, CV_8U 0/255) that stand above its local
-// level (DetectOptions::raised_*): thin parts lying flat on it. CV_8U 0/255.
-cv::Mat RaisedPixels(const Frame& frame, const Plane& plane, const cv::Mat& on_support, const DetectOptions& options) {
+// The height above `plane` towards the camera of the pixels of `pixels` (CV_8U), and 1 in
+// `weight` there; both CV_32F, 0 elsewhere.
+void HeightsAbove(const Frame& frame, const Plane& plane, const cv::Mat& pixels, cv::Mat* height, cv::Mat* weight) {
   const cv::Mat& depth = frame.depth;
-  // Height towards the camera (the side of the plane the camera is on).
   const float toward = plane.Distance(Eigen::Vector3d::Zero()) >= 0.0 ? 1.0f : -1.0f;
-  cv::Mat height = cv::Mat::zeros(depth.size(), CV_32F), weight = cv::Mat::zeros(depth.size(), CV_32F);
+  *height = cv::Mat::zeros(depth.size(), CV_32F);
+  *weight = cv::Mat::zeros(depth.size(), CV_32F);
   for (int v = 0; v < depth.rows; ++v) {
-    const uint8_t* o = on_support.ptr<uint8_t>(v);
+    const uint8_t* o = pixels.ptr<uint8_t>(v);
     const float* d = depth.ptr<float>(v);
-    float* h = height.ptr<float>(v);
-    float* w = weight.ptr<float>(v);
+    float* h = height->ptr<float>(v);
+    float* w = weight->ptr<float>(v);
     for (int u = 0; u < depth.cols; ++u) {
       if (!o[u]) continue;
       h[u] = toward * static_cast<float>(plane.Distance(frame.camera.Backproject(PixelCentre(u, v), d[u])));
       w[u] = 1.0f;
     }
   }
+}
+
+// The pixels of a plane's support (`on_support`, CV_8U 0/255) that stand above its local
+// level (DetectOptions::raised_*): thin parts lying flat on it. CV_8U 0/255.
+cv::Mat RaisedPixels(const Frame& frame, const Plane& plane, const cv::Mat& on_support, const DetectOptions& options) {
+  const cv::Mat& depth = frame.depth;
+  // Height towards the camera (the side of the plane the camera is on).
+  cv::Mat height, weight;
+  HeightsAbove(frame, plane, on_support, &height, &weight);
   const cv::Mat smooth = WeightedAverage(height, weight, options.raised_window_px);
   cv::Mat raised = cv::Mat::zeros(depth.size(), CV_8U);
   // Twice: the second level leaves out what the first found raised (a large part lifts the
@@ -244,18 +253,8 @@ cv::Mat OutlinedRaisedPixels(const Frame& frame, const Plane& plane, const cv::M
 // raised_level_px squares (the sensor's noise averages out, a bend does not). `part`: CV_8U.
 double MeasuredFlatness(const Frame& frame, const Plane& plane, const cv::Mat& part, const DetectOptions& options) {
   const cv::Mat& depth = frame.depth;
-  cv::Mat height = cv::Mat::zeros(depth.size(), CV_32F), weight = cv::Mat::zeros(depth.size(), CV_32F);
-  for (int v = 0; v < depth.rows; ++v) {
-    const uint8_t* o = part.ptr<uint8_t>(v);
-    const float* d = depth.ptr<float>(v);
-    float* h = height.ptr<float>(v);
-    float* w = weight.ptr<float>(v);
-    for (int u = 0; u < depth.cols; ++u) {
-      if (!o[u]) continue;
-      h[u] = static_cast<float>(plane.Distance(frame.camera.Backproject(PixelCentre(u, v), d[u])));
-      w[u] = 1.0f;
-    }
-  }
+  cv::Mat height, weight;
+  HeightsAbove(frame, plane, part, &height, &weight);
   const cv::Mat level = WeightedAverage(height, weight, options.raised_level_px);
   std::vector<float> levels;
   for (int v = 0; v < depth.rows; v += 2) {

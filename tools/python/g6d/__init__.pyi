@@ -282,6 +282,7 @@ class DetectOptions(_Options):
     plane_iterations: int
     plane_samples: int
     plane_flatness_m: float
+    measure_plane_flatness: bool
     min_plane_fraction: float
     support_extent_factor: float
     raised_sigmas: float
