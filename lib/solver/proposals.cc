@@ -105,11 +105,23 @@ void HeightsAbove(const Frame& frame, const Plane& plane, const cv::Mat& pixels,
   }
 }
 
+// |values| (CV_32F) at every other pixel of every other row where `mask` (CV_8U) is set.
+std::vector<float> AbsoluteSamples(const cv::Mat& values, const cv::Mat& mask) {
+  std::vector<float> samples;
+  for (int v = 0; v < values.rows; v += 2) {
+    const uint8_t* m = mask.ptr<uint8_t>(v);
+    const float* x = values.ptr<float>(v);
+    for (int u = 0; u < values.cols; u += 2) {
+      if (m[u]) samples.push_back(std::abs(x[u]));
+    }
+  }
+  return samples;
+}
+
 // The pixels of a plane's support (`on_support`, CV_8U 0/255) that stand above its local
 // level (DetectOptions::raised_*): thin parts lying flat on it. CV_8U 0/255.
 cv::Mat RaisedPixels(const Frame& frame, const Plane& plane, const cv::Mat& on_support, const DetectOptions& options) {
   const cv::Mat& depth = frame.depth;
-  // Height towards the camera (the side of the plane the camera is on).
   cv::Mat height, weight;
   HeightsAbove(frame, plane, on_support, &height, &weight);
   const cv::Mat smooth = WeightedAverage(height, weight, options.raised_window_px);
@@ -123,14 +135,7 @@ cv::Mat RaisedPixels(const Frame& frame, const Plane& plane, const cv::Mat& on_s
     level_height.setTo(0.0f, raised);
     const cv::Mat level = WeightedAverage(level_height, level_weight, options.raised_level_px);
     const cv::Mat excess = smooth - level;
-    std::vector<float> spread;
-    for (int v = 0; v < depth.rows; v += 2) {
-      const uint8_t* o = on_support.ptr<uint8_t>(v);
-      const float* e = excess.ptr<float>(v);
-      for (int u = 0; u < depth.cols; u += 2) {
-        if (o[u]) spread.push_back(std::abs(e[u]));
-      }
-    }
+    std::vector<float> spread = AbsoluteSamples(excess, on_support);
     if (spread.empty()) return raised;
     std::nth_element(spread.begin(), spread.begin() + static_cast<std::ptrdiff_t>(spread.size() / 2), spread.end());
     const double sigma = 1.4826 * spread[spread.size() / 2];
@@ -252,18 +257,10 @@ cv::Mat OutlinedRaisedPixels(const Frame& frame, const Plane& plane, const cv::M
 // |its local level| above `plane`, the level being its heights averaged over
 // raised_level_px squares (the sensor's noise averages out, a bend does not). `part`: CV_8U.
 double MeasuredFlatness(const Frame& frame, const Plane& plane, const cv::Mat& part, const DetectOptions& options) {
-  const cv::Mat& depth = frame.depth;
   cv::Mat height, weight;
   HeightsAbove(frame, plane, part, &height, &weight);
   const cv::Mat level = WeightedAverage(height, weight, options.raised_level_px);
-  std::vector<float> levels;
-  for (int v = 0; v < depth.rows; v += 2) {
-    const uint8_t* o = part.ptr<uint8_t>(v);
-    const float* l = level.ptr<float>(v);
-    for (int u = 0; u < depth.cols; u += 2) {
-      if (o[u]) levels.push_back(std::abs(l[u]));
-    }
-  }
+  std::vector<float> levels = AbsoluteSamples(level, part);
   if (levels.empty()) return options.plane_flatness_m;
   const auto at = levels.begin() + static_cast<std::ptrdiff_t>(0.95 * static_cast<double>(levels.size() - 1));
   std::nth_element(levels.begin(), at, levels.end());
